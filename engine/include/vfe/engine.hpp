@@ -1,0 +1,86 @@
+// C++ facade of the vfe engine. The C API (vfe.h) is a thin catch-all layer over this.
+#pragma once
+
+#include <vfe/vfe.h>
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+
+namespace vfe {
+
+/// A user-facing failure: a status for the C API and a message that says what was
+/// wrong and how to fix it.
+class Error : public std::runtime_error {
+ public:
+  Error(vfe_status status, const std::string& message)
+      : std::runtime_error(message), status_(status) {}
+  vfe_status status() const noexcept { return status_; }
+
+ private:
+  vfe_status status_;
+};
+
+/// A uniform Cartesian grid: cells[d] cells of size spacing[d] from origin;
+/// cell (i, j, k) has index i + nx*(j + ny*k).
+struct CartesianGridSpec {
+  std::array<double, 3> origin{0, 0, 0};
+  std::array<double, 3> spacing{1, 1, 1};
+  std::array<std::int64_t, 3> cells{1, 1, 1};
+};
+
+/// Zero-copy view of the host's particle arrays. Strides count doubles between
+/// consecutive particles (0 = packed: 3 for centres, 1 for radii, 4 for orientations).
+/// orientations may be null (quaternions w, x, y, z otherwise).
+struct ParticleView {
+  std::int64_t n = 0;
+  const double* centres = nullptr;
+  const double* radii = nullptr;
+  const double* orientations = nullptr;
+  std::int64_t centre_stride = 0;
+  std::int64_t radius_stride = 0;
+  std::int64_t orientation_stride = 0;
+};
+
+using Report = vfe_report;
+
+class Engine {
+ public:
+  /// Builds an engine on a Cartesian grid; throws Error on invalid geometry.
+  explicit Engine(const CartesianGridSpec& grid);
+  ~Engine();
+  Engine(const Engine&) = delete;
+  Engine& operator=(const Engine&) = delete;
+
+  /// Applies "key=value key=value"; all or nothing. Throws Error naming the bad key.
+  void configure(std::string_view options);
+  /// Current value of an option as text (throws Error for an unknown key).
+  std::string option(std::string_view key) const;
+  /// All options and their current values, "key=value key=value".
+  std::string options() const;
+
+  std::int64_t cell_count() const;
+  /// Cell volumes in cell order.
+  void cell_volumes(std::span<double> out) const;
+
+  /// Solid volume per cell of the given spheres into out (overwritten). Throws Error;
+  /// out is untouched on failure.
+  void compute(const ParticleView& particles, std::span<double> out);
+  /// Void fraction of the last compute (clipped at alpha_min if set).
+  void void_fraction(std::span<double> out) const;
+  /// Facts about the last successful compute.
+  const Report& last_report() const;
+  /// Sub-elements per particle that particle_grid resolves to for a particle of the
+  /// given diameter in a cell of the given size (the template's actual size).
+  std::int64_t particle_grid_for(double diameter, double cell_size) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace vfe

@@ -1,0 +1,108 @@
+/* vfe: void fraction of CFD cells from DEM particles. C99 API.
+ *
+ * Every function returns a status; none throws, aborts or exits. A failed call leaves the
+ * output buffers untouched, sets a message (vfe_last_error) that says what was wrong and
+ * how to fix it, and leaves the engine usable. One engine must not be used by two threads
+ * at once; distinct engines are independent. Lengths and volumes are in the host's units.
+ */
+#ifndef VFE_VFE_H
+#define VFE_VFE_H
+
+#include <stdint.h>
+
+#define VFE_VERSION_MAJOR 0
+#define VFE_VERSION_MINOR 1
+#define VFE_VERSION_PATCH 0
+
+#if defined(_WIN32)
+#define VFE_API __declspec(dllexport)
+#else
+#define VFE_API __attribute__((visibility("default")))
+#endif
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct vfe_engine vfe_engine; /* opaque */
+
+typedef enum vfe_status {
+  VFE_OK = 0,
+  VFE_ERROR_INVALID_ARGUMENT = 1,
+  VFE_ERROR_OUT_OF_DOMAIN = 2,
+  VFE_ERROR_IO = 3,
+  VFE_ERROR_UNSUPPORTED = 4,
+  VFE_ERROR_OUT_OF_MEMORY = 5,
+  VFE_ERROR_INTERNAL = 6
+} vfe_status;
+
+/** Version string "MAJOR.MINOR.PATCH" of the loaded library. */
+VFE_API const char* vfe_version(void);
+
+/** Short name of a status ("VFE_OK", "VFE_ERROR_IO", ...); never NULL. */
+VFE_API const char* vfe_status_name(vfe_status s);
+
+/** Engine on a uniform Cartesian grid: cells[d] cells of size spacing[d] from origin.
+ *  Cell (i, j, k) has index i + nx*(j + ny*k). */
+VFE_API vfe_status vfe_create_cartesian(const double origin[3], const double spacing[3],
+                                        const int64_t cells[3], vfe_engine** out);
+
+/** Engine on an OpenFOAM polyMesh (case folder or its constant/polyMesh folder). */
+VFE_API vfe_status vfe_create_polymesh(const char* polymesh_dir, vfe_engine** out);
+
+/** Frees the engine; NULL is a no-op. */
+VFE_API void vfe_destroy(vfe_engine* e);
+
+/** Sets options from "key=value key=value" (see the README for keys). Either all given
+ *  options are applied or, on error, none. */
+VFE_API vfe_status vfe_configure(vfe_engine* e, const char* options);
+
+/** Number of cells, or -1 when e is NULL. */
+VFE_API int64_t vfe_cell_count(const vfe_engine* e);
+
+/** Writes the volume of every cell (cell_count values). */
+VFE_API vfe_status vfe_cell_volumes(const vfe_engine* e, double* out);
+
+/** Solid volume per cell of n spheres (centres 3n, radii n, orientations 4n quaternions
+ *  w,x,y,z or NULL). solid_volume gets cell_count values (overwritten, not added to).
+ *  The host's arrays are read, not copied, and not kept after the call. */
+VFE_API vfe_status vfe_compute(vfe_engine* e, int64_t n, const double* centres,
+                               const double* radii, const double* orientations,
+                               double* solid_volume);
+
+/** Void fraction 1 - Vs/V of the last successful compute (cell_count values), clipped
+ *  below at alpha_min when that option is set. */
+VFE_API vfe_status vfe_void_fraction(const vfe_engine* e, double* out);
+
+/** Message of the last failure on e ("" if none); for e == NULL, of the last failed
+ *  creation in this thread. Valid until the next call on e. */
+VFE_API const char* vfe_last_error(const vfe_engine* e);
+
+/** Non-spherical particles (not yet supported: VFE_ERROR_UNSUPPORTED). */
+VFE_API vfe_status vfe_add_shape(vfe_engine* e, const char* spec, int32_t* shape_id);
+VFE_API vfe_status vfe_compute_shapes(vfe_engine* e, int64_t n, const double* centres,
+                                      const double* scales, const double* orientations,
+                                      const int32_t* shape_ids, double* solid_volume);
+
+/** Facts about the last successful compute. Volumes in the host's units. */
+typedef struct vfe_report {
+  int64_t particles;            /* particles given */
+  int64_t fast_path_particles;  /* particles wholly inside one cell (one deposit) */
+  int64_t sub_elements;         /* sub-elements / points / cell overlaps evaluated */
+  int64_t particle_grid_min;    /* smallest and largest sub-elements per particle used */
+  int64_t particle_grid_max;
+  double particle_volume;       /* sum of the particles' volumes */
+  double deposited_volume;      /* sum of the solid volume field */
+  double dropped_volume;        /* lost outside the mesh under outside=drop */
+  int64_t outside_particles;    /* particles with some volume outside the mesh */
+  double clipped_volume;        /* removed from eps by alpha_min (solid volume units) */
+} vfe_report;
+
+/** Copies the report of the last successful compute. */
+VFE_API vfe_status vfe_last_report(const vfe_engine* e, vfe_report* out);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* VFE_VFE_H */

@@ -1,0 +1,161 @@
+// C API: a catch-all layer over vfe::Engine. No exception crosses into C.
+#include <vfe/engine.hpp>
+#include <vfe/vfe.h>
+
+#include <new>
+#include <span>
+#include <string>
+
+struct vfe_engine {
+  std::unique_ptr<vfe::Engine> engine;
+  std::string last_error;
+};
+
+namespace {
+
+thread_local std::string g_creation_error;
+
+#define VFE_STR2(x) #x
+#define VFE_STR(x) VFE_STR2(x)
+constexpr const char* kVersion =
+    VFE_STR(VFE_VERSION_MAJOR) "." VFE_STR(VFE_VERSION_MINOR) "." VFE_STR(VFE_VERSION_PATCH);
+
+/// Runs f, turning every exception into a status and a message in `error`.
+template <class F>
+vfe_status guarded(std::string& error, F&& f) noexcept {
+  try {
+    f();
+    error.clear();
+    return VFE_OK;
+  } catch (const vfe::Error& e) {
+    error = e.what();
+    return e.status();
+  } catch (const std::bad_alloc&) {
+    error = "out of memory; use fewer particles or a coarser mesh per engine";
+    return VFE_ERROR_OUT_OF_MEMORY;
+  } catch (const std::exception& e) {
+    error = std::string("internal error: ") + e.what() + " (please report it)";
+    return VFE_ERROR_INTERNAL;
+  } catch (...) {
+    error = "internal error of unknown kind (please report it)";
+    return VFE_ERROR_INTERNAL;
+  }
+}
+
+vfe_status null_argument(std::string& error, const char* what) {
+  error = std::string(what) + " is NULL; pass a valid pointer";
+  return VFE_ERROR_INVALID_ARGUMENT;
+}
+
+}  // namespace
+
+extern "C" {
+
+const char* vfe_version(void) { return kVersion; }
+
+const char* vfe_status_name(vfe_status s) {
+  switch (s) {
+    case VFE_OK: return "VFE_OK";
+    case VFE_ERROR_INVALID_ARGUMENT: return "VFE_ERROR_INVALID_ARGUMENT";
+    case VFE_ERROR_OUT_OF_DOMAIN: return "VFE_ERROR_OUT_OF_DOMAIN";
+    case VFE_ERROR_IO: return "VFE_ERROR_IO";
+    case VFE_ERROR_UNSUPPORTED: return "VFE_ERROR_UNSUPPORTED";
+    case VFE_ERROR_OUT_OF_MEMORY: return "VFE_ERROR_OUT_OF_MEMORY";
+    case VFE_ERROR_INTERNAL: return "VFE_ERROR_INTERNAL";
+  }
+  return "VFE_UNKNOWN_STATUS";
+}
+
+vfe_status vfe_create_cartesian(const double origin[3], const double spacing[3], const int64_t cells[3],
+                                vfe_engine** out) {
+  if (!out) return null_argument(g_creation_error, "out");
+  if (!origin) return null_argument(g_creation_error, "origin");
+  if (!spacing) return null_argument(g_creation_error, "spacing");
+  if (!cells) return null_argument(g_creation_error, "cells");
+  vfe_engine* created = nullptr;
+  const vfe_status s = guarded(g_creation_error, [&] {
+    vfe::CartesianGridSpec spec;
+    for (int d = 0; d < 3; ++d) {
+      spec.origin[d] = origin[d];
+      spec.spacing[d] = spacing[d];
+      spec.cells[d] = cells[d];
+    }
+    auto e = std::make_unique<vfe_engine>();
+    e->engine = std::make_unique<vfe::Engine>(spec);
+    created = e.release();
+  });
+  if (s == VFE_OK) *out = created;
+  return s;
+}
+
+vfe_status vfe_create_polymesh(const char* polymesh_dir, vfe_engine** out) {
+  if (!out) return null_argument(g_creation_error, "out");
+  if (!polymesh_dir) return null_argument(g_creation_error, "polymesh_dir");
+  g_creation_error = std::string("OpenFOAM polyMesh engines are not available in this version (asked for '") +
+                     polymesh_dir + "'); use vfe_create_cartesian";
+  return VFE_ERROR_UNSUPPORTED;
+}
+
+void vfe_destroy(vfe_engine* e) { delete e; }
+
+vfe_status vfe_configure(vfe_engine* e, const char* options) {
+  if (!e) return null_argument(g_creation_error, "engine");
+  if (!options) return null_argument(e->last_error, "options");
+  return guarded(e->last_error, [&] { e->engine->configure(options); });
+}
+
+int64_t vfe_cell_count(const vfe_engine* e) { return e ? e->engine->cell_count() : -1; }
+
+vfe_status vfe_cell_volumes(const vfe_engine* e, double* out) {
+  if (!e) return null_argument(g_creation_error, "engine");
+  auto& error = const_cast<vfe_engine*>(e)->last_error;
+  if (!out) return null_argument(error, "out");
+  return guarded(error, [&] { e->engine->cell_volumes(std::span<double>(out, e->engine->cell_count())); });
+}
+
+vfe_status vfe_compute(vfe_engine* e, int64_t n, const double* centres, const double* radii,
+                       const double* orientations, double* solid_volume) {
+  if (!e) return null_argument(g_creation_error, "engine");
+  if (!solid_volume) return null_argument(e->last_error, "solid_volume");
+  return guarded(e->last_error, [&] {
+    vfe::ParticleView view;
+    view.n = n;
+    view.centres = centres;
+    view.radii = radii;
+    view.orientations = orientations;
+    e->engine->compute(view, std::span<double>(solid_volume, e->engine->cell_count()));
+  });
+}
+
+vfe_status vfe_void_fraction(const vfe_engine* e, double* out) {
+  if (!e) return null_argument(g_creation_error, "engine");
+  auto& error = const_cast<vfe_engine*>(e)->last_error;
+  if (!out) return null_argument(error, "out");
+  return guarded(error, [&] { e->engine->void_fraction(std::span<double>(out, e->engine->cell_count())); });
+}
+
+const char* vfe_last_error(const vfe_engine* e) { return e ? e->last_error.c_str() : g_creation_error.c_str(); }
+
+vfe_status vfe_add_shape(vfe_engine* e, const char* spec, int32_t* shape_id) {
+  if (!e) return null_argument(g_creation_error, "engine");
+  (void)shape_id;
+  e->last_error = std::string("shapes are not available in this version (asked for '") + (spec ? spec : "") +
+                  "'); use vfe_compute with spheres";
+  return VFE_ERROR_UNSUPPORTED;
+}
+
+vfe_status vfe_compute_shapes(vfe_engine* e, int64_t, const double*, const double*, const double*,
+                              const int32_t*, double*) {
+  if (!e) return null_argument(g_creation_error, "engine");
+  e->last_error = "shapes are not available in this version; use vfe_compute with spheres";
+  return VFE_ERROR_UNSUPPORTED;
+}
+
+vfe_status vfe_last_report(const vfe_engine* e, vfe_report* out) {
+  if (!e) return null_argument(g_creation_error, "engine");
+  if (!out) return null_argument(const_cast<vfe_engine*>(e)->last_error, "out");
+  *out = e->engine->last_report();
+  return VFE_OK;
+}
+
+}  // extern "C"

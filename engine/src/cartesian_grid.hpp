@@ -1,0 +1,53 @@
+// Uniform Cartesian grid: O(1) point location, x-fastest cell order.
+#pragma once
+
+#include <vfe/engine.hpp>
+
+#include <Eigen/Core>
+
+#include <array>
+#include <cmath>
+#include <cstdint>
+
+namespace vfe {
+
+class CartesianGrid {
+ public:
+  /// Validates the spec (finite origin, spacing > 0, cells >= 1); throws Error.
+  explicit CartesianGrid(const CartesianGridSpec& spec);
+
+  std::int64_t cell_count() const { return n_[0] * n_[1] * n_[2]; }
+  double cell_volume() const { return h_[0] * h_[1] * h_[2]; }
+  const Eigen::Vector3d& origin() const { return o_; }
+  const Eigen::Vector3d& spacing() const { return h_; }
+  const std::array<std::int64_t, 3>& cells() const { return n_; }
+  Eigen::Vector3d upper() const { return o_ + h_.cwiseProduct(Eigen::Vector3d(double(n_[0]), double(n_[1]), double(n_[2]))); }
+
+  /// Unclamped integer cell coordinate of x along axis d (floor, may be outside [0, n)).
+  std::int64_t axis_index(int d, double x) const {
+    return static_cast<std::int64_t>(std::floor((x - o_[d]) * inv_h_[d]));
+  }
+  std::int64_t clamp_axis(int d, std::int64_t i) const { return i < 0 ? 0 : (i >= n_[d] ? n_[d] - 1 : i); }
+  std::int64_t index(std::int64_t i, std::int64_t j, std::int64_t k) const { return i + n_[0] * (j + n_[1] * k); }
+
+  /// Cell holding p, or -1 when p is outside the grid. Points on an interior face go to
+  /// the cell above it; points on the upper boundary are outside.
+  std::int64_t locate(const Eigen::Vector3d& p) const {
+    const std::int64_t i = axis_index(0, p[0]), j = axis_index(1, p[1]), k = axis_index(2, p[2]);
+    if (i < 0 || j < 0 || k < 0 || i >= n_[0] || j >= n_[1] || k >= n_[2]) return -1;
+    return index(i, j, k);
+  }
+  /// The cell nearest to p (p itself when inside): indices clamped to the grid.
+  std::int64_t nearest(const Eigen::Vector3d& p) const {
+    return index(clamp_axis(0, axis_index(0, p[0])), clamp_axis(1, axis_index(1, p[1])),
+                 clamp_axis(2, axis_index(2, p[2])));
+  }
+  /// Cell size as DESIGN defines it: cube root of the cell volume.
+  double cell_size() const { return std::cbrt(cell_volume()); }
+
+ private:
+  Eigen::Vector3d o_, h_, inv_h_;
+  std::array<std::int64_t, 3> n_;
+};
+
+}  // namespace vfe

@@ -1,0 +1,172 @@
+#include "options.hpp"
+
+#include <vfe/engine.hpp>
+
+#include <charconv>
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <vector>
+
+namespace vfe {
+
+namespace {
+
+const char* const kKeys =
+    "method, particle_grid, template, orientation, outside, threads, deterministic, alpha_min, "
+    "periodic, accumulation, seed, log_level";
+
+[[noreturn]] void bad(std::string_view key, std::string_view value, std::string_view expected) {
+  throw Error(VFE_ERROR_INVALID_ARGUMENT, "option '" + std::string(key) + "': bad value '" +
+                                              std::string(value) + "'; expected " + std::string(expected));
+}
+
+[[noreturn]] void unsupported(std::string_view key, std::string_view value, std::string_view available) {
+  throw Error(VFE_ERROR_UNSUPPORTED, "option '" + std::string(key) + "=" + std::string(value) +
+                                         "' is not available in this version; available: " +
+                                         std::string(available));
+}
+
+std::int64_t parse_int(std::string_view key, std::string_view v, std::int64_t lo, std::int64_t hi) {
+  std::int64_t x = 0;
+  auto [p, ec] = std::from_chars(v.data(), v.data() + v.size(), x);
+  if (ec != std::errc() || p != v.data() + v.size() || x < lo || x > hi)
+    bad(key, v, "an integer from " + std::to_string(lo) + " to " + std::to_string(hi));
+  return x;
+}
+
+double parse_double(std::string_view key, std::string_view v, double lo, double hi) {
+  std::string s(v);
+  char* end = nullptr;
+  const double x = std::strtod(s.c_str(), &end);
+  if (s.empty() || end != s.c_str() + s.size() || !std::isfinite(x) || x < lo || x > hi) {
+    std::ostringstream e;
+    e << "a number from " << lo << " to " << hi;
+    bad(key, v, e.str());
+  }
+  return x;
+}
+
+template <class E, std::size_t N>
+E parse_enum(std::string_view key, std::string_view v, const std::pair<const char*, E> (&table)[N]) {
+  std::string names;
+  for (const auto& [name, value] : table) {
+    if (v == name) return value;
+    names += (names.empty() ? "" : ", ") + std::string(name);
+  }
+  bad(key, v, "one of " + names);
+}
+
+constexpr std::pair<const char*, Method> kMethods[] = {
+    {"direct", Method::direct}, {"pmm", Method::pmm}, {"exact", Method::exact}};
+constexpr std::pair<const char*, TemplateFamily> kTemplates[] = {
+    {"spherical", TemplateFamily::spherical}, {"fibonacci", TemplateFamily::fibonacci}};
+constexpr std::pair<const char*, Orientation> kOrientations[] = {
+    {"random", Orientation::random}, {"given", Orientation::given}, {"none", Orientation::none}};
+constexpr std::pair<const char*, Outside> kOutside[] = {
+    {"nearest", Outside::nearest}, {"centre", Outside::centre}, {"drop", Outside::drop}, {"error", Outside::error}};
+constexpr std::pair<const char*, Accumulation> kAccumulation[] = {
+    {"auto", Accumulation::automatic}, {"private", Accumulation::privatised},
+    {"atomic", Accumulation::atomic}, {"sorted", Accumulation::sorted}};
+
+template <class E, std::size_t N>
+const char* name_of(E e, const std::pair<const char*, E> (&table)[N]) {
+  for (const auto& [name, value] : table)
+    if (value == e) return name;
+  return "?";
+}
+
+void apply(Options& o, std::string_view key, std::string_view v) {
+  if (key == "method") {
+    if (v == "divided" || v == "gaussian" || v == "porous_cube" || v == "big_particle")
+      unsupported(key, v, "direct, pmm, exact");
+    o.method = parse_enum(key, v, kMethods);
+  } else if (key == "particle_grid") {
+    o.particle_grid = v == "auto" ? 0 : parse_int(key, v, 1, 10'000'000);
+  } else if (key == "template") {
+    if (v == "voxel") unsupported(key, v, "spherical, fibonacci");
+    o.template_family = parse_enum(key, v, kTemplates);
+  } else if (key == "orientation") {
+    o.orientation = parse_enum(key, v, kOrientations);
+  } else if (key == "outside") {
+    o.outside = parse_enum(key, v, kOutside);
+  } else if (key == "threads") {
+    o.threads = static_cast<int>(parse_int(key, v, 0, 4096));
+  } else if (key == "deterministic") {
+    o.deterministic = parse_int(key, v, 0, 1) == 1;
+  } else if (key == "alpha_min") {
+    o.alpha_min = parse_double(key, v, 0.0, 1.0);
+  } else if (key == "periodic") {
+    if (v != "none") {
+      for (char c : v)
+        if (c != 'x' && c != 'y' && c != 'z') bad(key, v, "none or a combination of x, y, z (e.g. xy)");
+      unsupported(key, v, "none");
+    }
+  } else if (key == "accumulation") {
+    o.accumulation = parse_enum(key, v, kAccumulation);
+  } else if (key == "seed") {
+    o.seed = static_cast<std::uint64_t>(parse_int(key, v, 0, std::numeric_limits<std::int64_t>::max()));
+  } else if (key == "log_level") {
+    if (v != "trace" && v != "debug" && v != "info" && v != "warn" && v != "error" && v != "off")
+      bad(key, v, "one of trace, debug, info, warn, error, off");
+    o.log_level = std::string(v);
+  } else {
+    throw Error(VFE_ERROR_INVALID_ARGUMENT,
+                "unknown option '" + std::string(key) + "'; known options: " + kKeys);
+  }
+}
+
+}  // namespace
+
+Options parse_options(std::string_view text, const Options& base) {
+  Options o = base;
+  std::size_t pos = 0;
+  while (pos < text.size()) {
+    while (pos < text.size() && std::isspace(static_cast<unsigned char>(text[pos]))) ++pos;
+    if (pos >= text.size()) break;
+    std::size_t end = pos;
+    while (end < text.size() && !std::isspace(static_cast<unsigned char>(text[end]))) ++end;
+    const std::string_view token = text.substr(pos, end - pos);
+    const std::size_t eq = token.find('=');
+    if (eq == std::string_view::npos || eq == 0 || eq + 1 == token.size())
+      throw Error(VFE_ERROR_INVALID_ARGUMENT,
+                  "option '" + std::string(token) + "' is not of the form key=value (e.g. method=pmm)");
+    apply(o, token.substr(0, eq), token.substr(eq + 1));
+    pos = end;
+  }
+  return o;
+}
+
+std::string_view to_string(Method m) { return name_of(m, kMethods); }
+
+std::string option_value(const Options& o, std::string_view key) {
+  if (key == "method") return name_of(o.method, kMethods);
+  if (key == "particle_grid") return o.particle_grid == 0 ? "auto" : std::to_string(o.particle_grid);
+  if (key == "template") return name_of(o.template_family, kTemplates);
+  if (key == "orientation") return name_of(o.orientation, kOrientations);
+  if (key == "outside") return name_of(o.outside, kOutside);
+  if (key == "threads") return std::to_string(o.threads);
+  if (key == "deterministic") return o.deterministic ? "1" : "0";
+  if (key == "alpha_min") {
+    std::ostringstream s;
+    s << o.alpha_min;
+    return s.str();
+  }
+  if (key == "periodic") return "none";
+  if (key == "accumulation") return name_of(o.accumulation, kAccumulation);
+  if (key == "seed") return std::to_string(o.seed);
+  if (key == "log_level") return o.log_level;
+  throw Error(VFE_ERROR_INVALID_ARGUMENT, "unknown option '" + std::string(key) + "'; known options: " + kKeys);
+}
+
+std::string format_options(const Options& o) {
+  std::string out;
+  for (const char* key : {"method", "particle_grid", "template", "orientation", "outside", "threads",
+                          "deterministic", "alpha_min", "periodic", "accumulation", "seed", "log_level"}) {
+    if (!out.empty()) out += ' ';
+    out += std::string(key) + "=" + option_value(o, key);
+  }
+  return out;
+}
+
+}  // namespace vfe

@@ -1,0 +1,41 @@
+// Engine options: parsing "key=value key=value" and printing them back.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <string_view>
+
+namespace vfe {
+
+enum class Method { direct, pmm, exact };
+enum class TemplateFamily { spherical, fibonacci };
+enum class Orientation { random, given, none };
+enum class Outside { nearest, centre, drop, error };
+enum class Accumulation { automatic, privatised, atomic, sorted };
+
+struct Options {
+  Method method = Method::pmm;
+  std::int64_t particle_grid = 0;  ///< 0 = auto
+  TemplateFamily template_family = TemplateFamily::spherical;
+  Orientation orientation = Orientation::random;
+  Outside outside = Outside::nearest;
+  int threads = 0;  ///< 0 = all
+  bool deterministic = false;
+  double alpha_min = 0;
+  Accumulation accumulation = Accumulation::automatic;
+  std::uint64_t seed = 0;  ///< of the per-particle random template rotation
+  std::string log_level = "warn";
+};
+
+/// Applies "key=value ..." on top of base; throws Error (invalid argument naming the key,
+/// or unsupported for a known value not available yet). Nothing is changed on error.
+Options parse_options(std::string_view text, const Options& base);
+
+/// "key=value key=value" of every option.
+std::string format_options(const Options& o);
+/// Value of one option as text; throws Error for an unknown key.
+std::string option_value(const Options& o, std::string_view key);
+
+std::string_view to_string(Method m);
+
+}  // namespace vfe

@@ -1,0 +1,61 @@
+// Particle templates of the particle meshing method (PMM): a unit sphere cut into
+// sub-elements, each represented by its centroid and its share of the volume.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace vfe::kernels {
+
+struct ParticleTemplate {
+  /// Sub-element centroids of a sphere of radius 1 centred at the origin.
+  std::vector<Eigen::Vector3d> points;
+  /// Each sub-element's share of the particle volume; they sum to 1 (to round-off).
+  std::vector<double> fractions;
+  std::string family;  ///< "spherical" or "fibonacci"
+  int shells = 0, bands = 0, sectors = 0;  ///< spherical family's layout; 0 for others
+
+  std::size_t size() const { return points.size(); }
+};
+
+/// Equal-volume radial shells x equal-solid-angle polar bands x azimuthal sectors,
+/// each sub-element at its true centroid. Uses the layout whose size is nearest to n
+/// (preferring near-cubical sub-elements); n = 1 gives the centre.
+ParticleTemplate make_spherical_template(int n);
+
+/// n equal-volume points: radii stratified in r^3 (equal-volume shells, one point each),
+/// directions on a Fibonacci spiral, radial order decorrelated from the spiral, the set
+/// recentred so its centroid is the origin. Any n >= 1.
+ParticleTemplate make_fibonacci_template(int n);
+
+/// Shells x bands x sectors the spherical family uses for a requested size n.
+Eigen::Vector3i spherical_layout(int n);
+
+/// Fixed pseudo-random rotation (uniform on SO(3)) for a particle index and a seed.
+Eigen::Matrix3d random_rotation(std::uint64_t index, std::uint64_t seed);
+
+/// Rotation matrix of a quaternion (w, x, y, z), normalised first.
+inline Eigen::Matrix3d rotation_from_quaternion(const double* q) {
+  return Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized().toRotationMatrix();
+}
+
+/// PMM kernel for one particle: every sub-element's volume goes to the cell that holds
+/// its centroid. `transform` maps template points (unit sphere) to space: the rotation
+/// scaled by the radius. locate(point) -> cell (any integer type; the sink interprets
+/// it); sink(cell, point, volume).
+template <class Locate, class Sink>
+inline void pmm_deposit(const ParticleTemplate& tmpl, const Eigen::Vector3d& centre,
+                        const Eigen::Matrix3d& transform, double particle_volume,
+                        Locate&& locate, Sink&& sink) {
+  const std::size_t n = tmpl.points.size();
+  for (std::size_t s = 0; s < n; ++s) {
+    const Eigen::Vector3d p = centre + transform * tmpl.points[s];
+    sink(locate(p), p, particle_volume * tmpl.fractions[s]);
+  }
+}
+
+}  // namespace vfe::kernels

@@ -1,0 +1,126 @@
+/* The C API driven from C99: the calls a host solver makes, and its failures. */
+#include <vfe/vfe.h>
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static int failures = 0;
+static int checks = 0;
+
+#define CHECK(cond, ...)                                      \
+  do {                                                        \
+    ++checks;                                                 \
+    if (!(cond)) {                                            \
+      ++failures;                                             \
+      fprintf(stderr, "%s:%d: check failed: %s: ", __FILE__, __LINE__, #cond); \
+      fprintf(stderr, __VA_ARGS__);                           \
+      fputc('\n', stderr);                                    \
+    }                                                         \
+  } while (0)
+
+static const double kPi = 3.14159265358979323846;
+
+int main(void) {
+  const double origin[3] = {0, 0, 0}, spacing[3] = {0.002, 0.002, 0.002};
+  const int64_t cells[3] = {4, 4, 4};
+  vfe_engine* e = NULL;
+  vfe_status s;
+  int64_t nc, c;
+  double centres[6] = {0.004, 0.004, 0.004, 0.0011, 0.003, 0.005};
+  double radii[2] = {0.0005, 0.0007};
+  double *solid, *eps, *vol, total = 0, expected, saved;
+  vfe_report rep;
+
+  CHECK(strlen(vfe_version()) >= 5, "version '%s'", vfe_version());
+  CHECK(strcmp(vfe_status_name(VFE_ERROR_IO), "VFE_ERROR_IO") == 0, "status name");
+
+  s = vfe_create_cartesian(origin, spacing, cells, &e);
+  CHECK(s == VFE_OK && e != NULL, "create: %s", vfe_last_error(NULL));
+  if (!e) return 1;
+  nc = vfe_cell_count(e);
+  CHECK(nc == 64, "cell count %lld", (long long)nc);
+  solid = (double*)malloc(sizeof(double) * (size_t)nc);
+  eps = (double*)malloc(sizeof(double) * (size_t)nc);
+  vol = (double*)malloc(sizeof(double) * (size_t)nc);
+  CHECK(vfe_cell_volumes(e, vol) == VFE_OK, "cell volumes");
+  CHECK(fabs(vol[0] - 8e-9) < 1e-22, "cell volume %g", vol[0]);
+
+  expected = 4.0 / 3.0 * kPi * (radii[0] * radii[0] * radii[0] + radii[1] * radii[1] * radii[1]);
+  {
+    const char* methods[3] = {"method=direct", "method=pmm", "method=exact"};
+    int m;
+    for (m = 0; m < 3; ++m) {
+      s = vfe_configure(e, methods[m]);
+      CHECK(s == VFE_OK, "%s: %s", methods[m], vfe_last_error(e));
+      s = vfe_compute(e, 2, centres, radii, NULL, solid);
+      CHECK(s == VFE_OK, "compute %s: %s", methods[m], vfe_last_error(e));
+      total = 0;
+      for (c = 0; c < nc; ++c) total += solid[c];
+      CHECK(fabs(total - expected) < 1e-12 * expected, "%s conserves volume: %g vs %g", methods[m], total, expected);
+      CHECK(vfe_void_fraction(e, eps) == VFE_OK, "void fraction");
+      CHECK(fabs(eps[0] - (1.0 - solid[0] / vol[0])) < 1e-15, "eps = 1 - Vs/V");
+      CHECK(vfe_last_report(e, &rep) == VFE_OK && rep.particles == 2, "report");
+      CHECK(fabs(rep.particle_volume - expected) < 1e-12 * expected, "report volume");
+    }
+  }
+
+  /* Failures: a status, a message, untouched output, a usable engine. */
+  s = vfe_configure(e, "method=pmm bogus=1");
+  CHECK(s == VFE_ERROR_INVALID_ARGUMENT, "unknown option status %d", (int)s);
+  CHECK(strstr(vfe_last_error(e), "bogus") != NULL, "message names the key: %s", vfe_last_error(e));
+  s = vfe_configure(e, "particle_grid=abc");
+  CHECK(s == VFE_ERROR_INVALID_ARGUMENT && strstr(vfe_last_error(e), "particle_grid"), "bad value: %s",
+        vfe_last_error(e));
+  CHECK(vfe_configure(e, "method=divided") == VFE_ERROR_UNSUPPORTED, "unsupported method");
+
+  saved = solid[0];
+  solid[0] = -5.0;
+  centres[4] = NAN;
+  s = vfe_compute(e, 2, centres, radii, NULL, solid);
+  CHECK(s == VFE_ERROR_INVALID_ARGUMENT, "NaN position status %d", (int)s);
+  CHECK(strstr(vfe_last_error(e), "particle 1") != NULL, "NaN message: %s", vfe_last_error(e));
+  CHECK(solid[0] == -5.0, "output untouched on failure");
+  centres[4] = 0.003;
+  radii[0] = -1.0;
+  CHECK(vfe_compute(e, 2, centres, radii, NULL, solid) == VFE_ERROR_INVALID_ARGUMENT, "negative radius");
+  radii[0] = 0.0005;
+  CHECK(vfe_compute(e, 2, NULL, radii, NULL, solid) == VFE_ERROR_INVALID_ARGUMENT, "NULL centres");
+  CHECK(vfe_compute(e, -1, centres, radii, NULL, solid) == VFE_ERROR_INVALID_ARGUMENT, "negative n");
+  CHECK(vfe_compute(e, 2, centres, radii, NULL, NULL) == VFE_ERROR_INVALID_ARGUMENT, "NULL output");
+  CHECK(vfe_configure(e, "outside=error method=exact") == VFE_OK, "outside=error");
+  centres[0] = 0.0001;
+  s = vfe_compute(e, 2, centres, radii, NULL, solid);
+  CHECK(s == VFE_ERROR_OUT_OF_DOMAIN, "outside: %d %s", (int)s, vfe_last_error(e));
+  centres[0] = 0.004;
+  s = vfe_compute(e, 2, centres, radii, NULL, solid);
+  CHECK(s == VFE_OK && strlen(vfe_last_error(e)) == 0, "usable after errors: %s", vfe_last_error(e));
+  (void)saved;
+
+  /* Zero particles: an empty field. */
+  CHECK(vfe_compute(e, 0, NULL, NULL, NULL, solid) == VFE_OK, "n = 0: %s", vfe_last_error(e));
+  total = 0;
+  for (c = 0; c < nc; ++c) total += fabs(solid[c]);
+  CHECK(total == 0.0, "empty field");
+
+  {
+    const int64_t zero_cells[3] = {4, 0, 4};
+    vfe_engine* bad = NULL;
+    s = vfe_create_cartesian(origin, spacing, zero_cells, &bad);
+    CHECK(s == VFE_ERROR_INVALID_ARGUMENT && bad == NULL, "zero cells");
+    CHECK(strstr(vfe_last_error(NULL), "cells[1]") != NULL, "creation message: %s", vfe_last_error(NULL));
+    CHECK(vfe_create_polymesh("no/such/case", &bad) != VFE_OK && bad == NULL, "polymesh");
+    CHECK(vfe_create_cartesian(NULL, spacing, cells, &bad) == VFE_ERROR_INVALID_ARGUMENT, "NULL origin");
+  }
+  CHECK(vfe_cell_count(NULL) == -1, "NULL engine count");
+  CHECK(vfe_configure(NULL, "method=pmm") == VFE_ERROR_INVALID_ARGUMENT, "NULL engine configure");
+
+  vfe_destroy(e);
+  vfe_destroy(NULL);
+  free(solid);
+  free(eps);
+  free(vol);
+  printf("%d passed, %d failed\n", checks - failures, failures);
+  return failures == 0 ? 0 : 1;
+}
