@@ -165,7 +165,7 @@ TEST(Engine, PmmConvergesToExactAsTheParticleGridGrows) {
 
 TEST(Engine, DeterministicIsBitwiseIdenticalForOneAndTwoThreads) {
   Engine e(grid(0.4, 20, 20, 20));
-  const Particles p = random_particles(5000, 8.0, 0.1, 0.5, 5);
+  const Particles p = random_particles(2000, 8.0, 0.1, 0.5, 5);
   for (const char* m : {"method=pmm", "method=exact", "method=direct"}) {
     const auto one = run(e, p, std::string(m) + " deterministic=1 threads=1");
     const auto two = run(e, p, std::string(m) + " deterministic=1 threads=2");
@@ -175,7 +175,7 @@ TEST(Engine, DeterministicIsBitwiseIdenticalForOneAndTwoThreads) {
 
 TEST(Engine, AccumulationStrategiesAgree) {
   Engine e(grid(0.5, 16, 16, 16));
-  const Particles p = random_particles(3000, 8.0, 0.1, 0.6, 6);
+  const Particles p = random_particles(1500, 8.0, 0.1, 0.6, 6);
   const auto ref = run(e, p, "method=pmm accumulation=sorted threads=2");
   for (const char* a : {"accumulation=private", "accumulation=atomic", "accumulation=auto"}) {
     const auto f = run(e, p, std::string("method=pmm threads=2 ") + a);

@@ -1,0 +1,26 @@
+#!/usr/bin/env bash
+# Installs vfe's dependencies from Debian 12 packages when missing, then configures and
+# builds one CMake preset (default: release). Usage: scripts/setup.sh [release|audit|profiling]
+set -euo pipefail
+cd "$(dirname "$0")/.."
+preset="${1:-release}"
+
+packages=(g++ cmake ninja-build pkg-config libtbb-dev libeigen3-dev libnanoflann-dev libspdlog-dev
+          libyaml-cpp-dev libcli11-dev zlib1g-dev libgtest-dev libbenchmark-dev python3-matplotlib)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "setup: installing ${missing[*]}"
+  sudo=""
+  if [ "$(id -u)" -ne 0 ]; then
+    command -v sudo >/dev/null || { echo "setup: run as root or install sudo to install: ${missing[*]}" >&2; exit 1; }
+    sudo="sudo"
+  fi
+  $sudo apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+
+cmake --preset "$preset" >/dev/null
+cmake --build --preset "$preset" -j "$(nproc)"
