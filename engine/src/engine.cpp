@@ -447,12 +447,22 @@ struct Engine::Impl {
     double deposited = 0;
     for (double x : work) deposited += x;
     rep.deposited_volume = deposited;
+    rep.clipped_volume = clipped_volume(work);
     solid.swap(work);
     have_field = true;
     report = rep;
     std::copy(solid.begin(), solid.end(), out.begin());
     log->info("computed {} particles with {}: {} sub-elements, {} on the fast path, {} outside", pv.n,
               to_string(opts.method), rep.sub_elements, rep.fast_path_particles, rep.outside_particles);
+  }
+
+  /// Solid volume that clipping eps at alpha_min removes (0 when alpha_min is 0: no clip).
+  double clipped_volume(const std::vector<double>& field) const {
+    if (opts.alpha_min <= 0) return 0.0;
+    const double vc = grid.cell_volume();
+    double clipped = 0;
+    for (double vs : field) clipped += std::max(0.0, vs - (1.0 - opts.alpha_min) * vc);
+    return clipped;
   }
 
   /// Deterministic accumulation: deposits of fixed particle blocks, concatenated in
@@ -537,16 +547,10 @@ void Engine::void_fraction(std::span<double> out) const {
                                                 " cells; pass a buffer of cell_count values");
   const double vc = impl_->grid.cell_volume();
   const double alpha_min = impl_->opts.alpha_min;
-  double clipped = 0;
   for (std::int64_t c = 0; c < n; ++c) {
-    double eps = 1.0 - impl_->solid[c] / vc;
-    if (eps < alpha_min) {
-      clipped += (alpha_min - eps) * vc;
-      eps = alpha_min;
-    }
-    out[c] = eps;
+    const double eps = 1.0 - impl_->solid[c] / vc;
+    out[c] = alpha_min > 0 && eps < alpha_min ? alpha_min : eps;
   }
-  impl_->report.clipped_volume = clipped;
 }
 
 const Report& Engine::last_report() const { return impl_->report; }

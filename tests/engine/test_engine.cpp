@@ -227,7 +227,6 @@ TEST(Engine, OutsidePolicies) {
   Particles p;
   p.centres = {0.1, 2.0, 2.0, 2.0, 2.0, 2.0};  // the first pokes out through x = 0
   p.radii = {0.4, 0.3};
-  const double inner = 4.0 / 3.0 * std::numbers::pi * 0.027;
   for (const char* m : {"method=direct", "method=pmm", "method=exact"}) {
     for (const char* o : {"outside=nearest", "outside=centre"}) {
       const auto f = run(e, p, std::string(m) + " " + o);
@@ -310,18 +309,23 @@ TEST(Engine, BadInputsGiveClearErrorsAndLeaveTheEngineUsable) {
 }
 
 TEST(Engine, VoidFractionAndAlphaMinClipReportsTheClippedVolume) {
-  Engine e(grid(1.0, 1, 1, 1));
+  Engine e(grid(1.0, 2, 1, 1));
   Particles p;
-  p.centres = {0.5, 0.5, 0.5};
-  p.radii = {0.49};
+  p.centres = {0.5, 0.5, 0.5, 1.5, 0.5, 0.5, 1.5, 0.5, 0.5, 1.5, 0.5, 0.5};
+  p.radii = {0.49, 0.49, 0.49, 0.49};  // three spheres in cell 1: more solid than it holds
   run(e, p, "method=exact");
-  std::vector<double> eps(1);
+  const double vs = 4.0 / 3.0 * std::numbers::pi * 0.49 * 0.49 * 0.49;
+  std::vector<double> eps(2);
   e.void_fraction(eps);
-  EXPECT_NEAR(eps[0], 1 - p.volume(), 1e-15);
-  e.configure("alpha_min=0.6");
+  EXPECT_NEAR(eps[0], 1 - vs, 1e-15);
+  EXPECT_NEAR(eps[1], 1 - 3 * vs, 1e-15);  // negative: no clip unless asked
+  EXPECT_LT(eps[1], 0.0);
+  EXPECT_EQ(e.last_report().clipped_volume, 0.0);
+  run(e, p, "method=exact alpha_min=0.6");
+  EXPECT_NEAR(e.last_report().clipped_volume, (vs - 0.4) + (3 * vs - 0.4), 1e-15);
   e.void_fraction(eps);
   EXPECT_EQ(eps[0], 0.6);
-  EXPECT_NEAR(e.last_report().clipped_volume, 0.6 - (1 - p.volume()), 1e-15);
+  EXPECT_EQ(eps[1], 0.6);
 }
 
 TEST(Engine, AutoParticleGridFollowsTheDefaultCriterion) {

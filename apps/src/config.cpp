@@ -1,0 +1,421 @@
+#include "config.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+namespace vfe::apps {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Ctx {
+  std::string source;
+
+  [[noreturn]] void fail(const YAML::Node& at, const std::string& what) const {
+    const YAML::Mark m = at.IsDefined() ? at.Mark() : YAML::Mark::null_mark();
+    if (!m.is_null())
+      throw ConfigError(source + ":" + std::to_string(m.line + 1) + ": " + what);
+    throw ConfigError(source + ": " + what);
+  }
+  [[noreturn]] void fail(const std::string& what) const { throw ConfigError(source + ": " + what); }
+};
+
+std::string list(const std::vector<std::string>& v) {
+  std::string s;
+  for (const auto& x : v) s += (s.empty() ? "" : ", ") + x;
+  return s;
+}
+
+/// Every key of map must be one of allowed.
+void check_keys(const Ctx& ctx, const YAML::Node& map, const std::vector<std::string>& allowed,
+                const std::string& where) {
+  for (const auto& kv : map) {
+    const std::string key = kv.first.as<std::string>();
+    if (std::find(allowed.begin(), allowed.end(), key) == allowed.end())
+      ctx.fail(kv.first, "unknown key '" + key + "' in " + where + "; allowed keys: " + list(allowed) +
+                             " (check the spelling)");
+  }
+}
+
+std::string scalar(const Ctx& ctx, const YAML::Node& n, const std::string& what) {
+  if (!n.IsScalar()) ctx.fail(n, what + " must be a single value (text)");
+  return n.as<std::string>();
+}
+
+double number(const Ctx& ctx, const YAML::Node& n, const std::string& what) {
+  if (!n.IsScalar()) ctx.fail(n, what + " must be a number");
+  try {
+    const double v = n.as<double>();
+    if (!std::isfinite(v)) ctx.fail(n, what + " must be a finite number, got '" + n.Scalar() + "'");
+    return v;
+  } catch (const YAML::BadConversion&) {
+    ctx.fail(n, what + " must be a number, got '" + n.Scalar() + "'");
+  }
+}
+
+std::int64_t integer(const Ctx& ctx, const YAML::Node& n, const std::string& what) {
+  if (!n.IsScalar()) ctx.fail(n, what + " must be an integer");
+  try {
+    return n.as<std::int64_t>();
+  } catch (const YAML::BadConversion&) {
+    ctx.fail(n, what + " must be an integer, got '" + n.Scalar() + "'");
+  }
+}
+
+/// [a, b, c] or a single value repeated.
+std::array<double, 3> triple(const Ctx& ctx, const YAML::Node& n, const std::string& what) {
+  if (n.IsScalar()) {
+    const double v = number(ctx, n, what);
+    return {v, v, v};
+  }
+  if (!n.IsSequence() || n.size() != 3)
+    ctx.fail(n, what + " must be a list of 3 numbers [x, y, z] (or a single number)");
+  return {number(ctx, n[0], what), number(ctx, n[1], what), number(ctx, n[2], what)};
+}
+
+std::array<std::int64_t, 3> triple_int(const Ctx& ctx, const YAML::Node& n, const std::string& what) {
+  if (n.IsScalar()) {
+    const auto v = integer(ctx, n, what);
+    return {v, v, v};
+  }
+  if (!n.IsSequence() || n.size() != 3)
+    ctx.fail(n, what + " must be a list of 3 integers [nx, ny, nz] (or a single integer)");
+  return {integer(ctx, n[0], what), integer(ctx, n[1], what), integer(ctx, n[2], what)};
+}
+
+bool is_identifier_like(const std::string& s) {
+  if (s.empty()) return false;
+  return std::all_of(s.begin(), s.end(), [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-';
+  });
+}
+
+std::string default_label(const std::string& method, const std::string& options) {
+  std::istringstream in(options);
+  std::string tok, label = method;
+  while (in >> tok) {
+    std::replace(tok.begin(), tok.end(), '=', '-');
+    label += "_" + tok;
+  }
+  return label;
+}
+
+MethodSpec method_entry(const Ctx& ctx, const YAML::Node& n, const std::string& where) {
+  MethodSpec m;
+  if (n.IsScalar()) {
+    m.method = n.as<std::string>();
+  } else if (n.IsMap()) {
+    check_keys(ctx, n, {"method", "options", "label"}, where);
+    if (!n["method"]) ctx.fail(n, where + " has no 'method' key; write e.g. {method: pmm, options: \"particle_grid=27\"}");
+    m.method = scalar(ctx, n["method"], where + ": method");
+    if (n["options"]) {
+      if (n["options"].IsNull())
+        m.options.clear();
+      else
+        m.options = scalar(ctx, n["options"], where + ": options");
+    }
+    if (n["label"]) m.label = scalar(ctx, n["label"], where + ": label");
+  } else {
+    ctx.fail(n, where + " must be a method name (e.g. pmm) or a map {method: NAME, options: \"k=v ...\", "
+                        "label: NAME}");
+  }
+  if (!is_identifier_like(m.method))
+    ctx.fail(n, where + ": '" + m.method + "' is not a method name; use one of direct, pmm, exact, "
+                        "divided, gaussian, porous_cube, big_particle");
+  if (m.options.find("method=") != std::string::npos)
+    ctx.fail(n, where + ": options must not set method= (use the 'method' key)");
+  if (m.label.empty()) m.label = default_label(m.method, m.options);
+  if (m.label.find_first_of(" \t\",\n") != std::string::npos)
+    ctx.fail(n, where + ": label '" + m.label + "' must not contain blanks, quotes or commas");
+  try {
+    (void)merge_options({m.options});
+  } catch (const ConfigError& e) {
+    ctx.fail(n, where + ": " + e.what());
+  }
+  return m;
+}
+
+MeshSpec mesh_entry(const Ctx& ctx, const YAML::Node& n, std::size_t index) {
+  const std::string where0 = "mesh " + std::to_string(index + 1);
+  if (!n.IsMap())
+    ctx.fail(n, where0 + " must be a map with keys name, type, origin/bounds, spacing, cells");
+  MeshSpec m;
+  m.line = n.Mark().is_null() ? 0 : n.Mark().line + 1;
+  m.name = n["name"] ? scalar(ctx, n["name"], where0 + ": name") : "mesh" + std::to_string(index + 1);
+  const std::string where = "mesh '" + m.name + "'";
+  check_keys(ctx, n, {"name", "type", "origin", "spacing", "cells", "bounds"}, where);
+  if (!is_identifier_like(m.name))
+    ctx.fail(n["name"], where + ": the name may only have letters, digits, '_' and '-'");
+  if (n["type"]) m.type = scalar(ctx, n["type"], where + ": type");
+  if (m.type != "cartesian")
+    ctx.fail(n["type"], where + ": type '" + m.type + "' is not supported; use type: cartesian");
+  if (n["origin"]) m.origin = triple(ctx, n["origin"], where + ": origin");
+  if (n["spacing"]) m.spacing = triple(ctx, n["spacing"], where + ": spacing");
+  if (n["cells"]) m.cells = triple_int(ctx, n["cells"], where + ": cells");
+  if (n["bounds"]) {
+    const YAML::Node b = n["bounds"];
+    if (b.IsScalar() && b.as<std::string>() == "particles_box") {
+      m.bounds_particles_box = true;
+    } else if (b.IsSequence() && b.size() == 6) {
+      std::array<double, 6> v{};
+      for (std::size_t i = 0; i < 6; ++i) v[i] = number(ctx, b[i], where + ": bounds");
+      m.bounds = v;
+    } else {
+      ctx.fail(b, where + ": bounds must be 'particles_box' or [xlo, xhi, ylo, yhi, zlo, zhi]");
+    }
+  }
+  const bool has_bounds = m.bounds_particles_box || m.bounds.has_value();
+  if (has_bounds && m.origin)
+    ctx.fail(n, where + ": give either 'origin' (with spacing and cells) or 'bounds' (with spacing or "
+                        "cells), not both");
+  if (!has_bounds && !m.origin)
+    ctx.fail(n, where + ": no position; add 'origin: [x, y, z]' with 'spacing' and 'cells', or "
+                        "'bounds: particles_box' with 'spacing'");
+  if (m.origin && !(m.spacing && m.cells))
+    ctx.fail(n, where + ": 'origin' needs both 'spacing' and 'cells'");
+  if (has_bounds && !m.spacing && !m.cells)
+    ctx.fail(n, where + ": 'bounds' needs 'spacing' (or 'cells')");
+  if (has_bounds && m.spacing && m.cells)
+    ctx.fail(n, where + ": with 'bounds' give 'spacing' or 'cells', not both");
+  if (m.spacing)
+    for (double h : *m.spacing)
+      if (!(h > 0)) ctx.fail(n["spacing"], where + ": spacing must be > 0");
+  if (m.cells)
+    for (auto c : *m.cells)
+      if (c < 1) ctx.fail(n["cells"], where + ": cells must be >= 1 in every direction");
+  if (m.bounds)
+    for (int d = 0; d < 3; ++d)
+      if (!((*m.bounds)[2 * d + 1] > (*m.bounds)[2 * d]))
+        ctx.fail(n["bounds"], where + ": bounds need lo < hi in every direction");
+  return m;
+}
+
+SceneConfig parse_root(const Ctx& ctx, const YAML::Node& root, const fs::path& base_dir) {
+  if (!root.IsDefined() || root.IsNull()) ctx.fail("the config is empty; see configs/bed_mono.yaml for an example");
+  if (!root.IsMap()) ctx.fail(root, "the config must be a map of keys (name, particles, meshes, methods, ...)");
+  check_keys(ctx, root,
+             {"name", "particles", "meshes", "methods", "reference", "threads", "repeats", "options", "output", "vtk"},
+             "the config");
+  SceneConfig c;
+  c.source = ctx.source;
+
+  c.name = root["name"] ? scalar(ctx, root["name"], "name") : fs::path(ctx.source).stem().string();
+  if (c.name.empty()) c.name = "scene";
+
+  // particles
+  const YAML::Node p = root["particles"];
+  if (!p) ctx.fail(root, "no 'particles' key; add particles: {file: PATH_TO_DUMP}");
+  std::string file;
+  if (p.IsScalar()) {
+    file = p.as<std::string>();
+  } else if (p.IsMap()) {
+    check_keys(ctx, p, {"file", "frame"}, "particles");
+    if (!p["file"]) ctx.fail(p, "particles has no 'file' key; add file: PATH_TO_DUMP");
+    file = scalar(ctx, p["file"], "particles: file");
+    if (p["frame"]) {
+      const YAML::Node f = p["frame"];
+      const std::string s = f.IsScalar() ? f.as<std::string>() : "";
+      if (s == "last")
+        c.frame = -1;
+      else if (s == "first")
+        c.frame = 0;
+      else
+        c.frame = integer(ctx, f, "particles: frame (first, last, or an index; negative counts from the end)");
+    }
+  } else {
+    ctx.fail(p, "particles must be a map {file: PATH, frame: last}");
+  }
+  if (file.empty()) ctx.fail(p, "particles: file is empty");
+  c.particles_file = fs::path(file).is_absolute() ? fs::path(file) : (base_dir / file).lexically_normal();
+
+  // meshes
+  const YAML::Node meshes = root["meshes"];
+  if (!meshes || meshes.IsNull() || (meshes.IsSequence() && meshes.size() == 0))
+    ctx.fail(meshes ? meshes : root, "no mesh: add a 'meshes:' list with at least one mesh, e.g. "
+                                     "{name: grid, type: cartesian, bounds: particles_box, spacing: 0.002}");
+  if (!meshes.IsSequence()) ctx.fail(meshes, "'meshes' must be a list of meshes");
+  std::set<std::string> mesh_names;
+  for (std::size_t i = 0; i < meshes.size(); ++i) {
+    MeshSpec m = mesh_entry(ctx, meshes[i], i);
+    if (!mesh_names.insert(m.name).second)
+      ctx.fail(meshes[i], "two meshes are named '" + m.name + "'; give each mesh its own name");
+    c.meshes.push_back(std::move(m));
+  }
+
+  // methods
+  const YAML::Node methods = root["methods"];
+  if (!methods || methods.IsNull() || (methods.IsSequence() && methods.size() == 0))
+    ctx.fail(methods ? methods : root, "no method: add a 'methods:' list, e.g. [direct, pmm, exact]");
+  if (!methods.IsSequence()) ctx.fail(methods, "'methods' must be a list");
+  std::set<std::string> labels;
+  for (std::size_t i = 0; i < methods.size(); ++i) {
+    MethodSpec m = method_entry(ctx, methods[i], "method entry " + std::to_string(i + 1));
+    if (!labels.insert(m.label).second)
+      ctx.fail(methods[i], "two methods have the label '" + m.label + "'; add label: NAME to tell them apart");
+    c.methods.push_back(std::move(m));
+  }
+
+  // reference: a label of the methods list, or a method (entry)
+  if (const YAML::Node r = root["reference"]) {
+    bool found = false;
+    if (r.IsScalar()) {
+      const std::string name = r.as<std::string>();
+      for (const auto& m : c.methods)
+        if (m.label == name) {
+          c.reference = m;
+          found = true;
+          break;
+        }
+    }
+    if (!found) c.reference = method_entry(ctx, r, "reference");
+  }
+
+  if (root["threads"]) {
+    const auto t = integer(ctx, root["threads"], "threads");
+    if (t < 0 || t > 4096) ctx.fail(root["threads"], "threads must be 0 (all) or a count >= 1");
+    c.threads = static_cast<int>(t);
+  }
+  if (root["repeats"]) {
+    const auto r = integer(ctx, root["repeats"], "repeats");
+    if (r < 1 || r > 1000000) ctx.fail(root["repeats"], "repeats must be >= 1");
+    c.repeats = static_cast<int>(r);
+  }
+  if (root["options"] && !root["options"].IsNull()) {
+    c.options = scalar(ctx, root["options"], "options");
+    if (c.options.find("method=") != std::string::npos)
+      ctx.fail(root["options"], "options must not set method= (list methods under 'methods')");
+    try {
+      (void)merge_options({c.options});
+    } catch (const ConfigError& e) {
+      ctx.fail(root["options"], std::string("options: ") + e.what());
+    }
+  }
+  if (root["output"]) {
+    const std::string o = scalar(ctx, root["output"], "output");
+    c.output = fs::path(o).is_absolute() ? fs::path(o) : (base_dir / o).lexically_normal();
+  } else {
+    c.output = (base_dir / "out" / c.name).lexically_normal();
+  }
+  if (root["vtk"]) {
+    try {
+      c.vtk = root["vtk"].as<bool>();
+    } catch (const YAML::BadConversion&) {
+      ctx.fail(root["vtk"], "vtk must be true or false");
+    }
+  }
+  return c;
+}
+
+}  // namespace
+
+SceneConfig parse_config(const std::string& text, const fs::path& base_dir, const std::string& source) {
+  Ctx ctx{source};
+  YAML::Node root;
+  try {
+    root = YAML::Load(text);
+  } catch (const YAML::ParserException& e) {
+    if (!e.mark.is_null())
+      throw ConfigError(source + ":" + std::to_string(e.mark.line + 1) + ": not valid YAML: " + e.msg);
+    throw ConfigError(source + ": not valid YAML: " + e.msg);
+  }
+  try {
+    return parse_root(ctx, root, base_dir);
+  } catch (const YAML::Exception& e) {
+    if (!e.mark.is_null())
+      throw ConfigError(source + ":" + std::to_string(e.mark.line + 1) + ": " + e.msg);
+    throw ConfigError(source + ": " + e.msg);
+  }
+}
+
+SceneConfig load_config(const fs::path& file) {
+  std::error_code ec;
+  if (!fs::exists(file, ec))
+    throw ConfigError(file.string() + ": no such config file; check the path");
+  if (fs::is_directory(file, ec))
+    throw ConfigError(file.string() + ": is a folder; give a YAML config file");
+  std::ifstream in(file);
+  if (!in) throw ConfigError(file.string() + ": cannot read the config file (permissions?)");
+  std::ostringstream text;
+  text << in.rdbuf();
+  const fs::path base = fs::absolute(file, ec).parent_path();
+  return parse_config(text.str(), base.empty() ? fs::path(".") : base, file.string());
+}
+
+vfe::CartesianGridSpec resolve_grid(const MeshSpec& m, const std::array<double, 6>* particles_box,
+                                    const std::string& source, std::string* note) {
+  vfe::CartesianGridSpec g;
+  const std::string where = source + (m.line > 0 ? ":" + std::to_string(m.line) : std::string()) +
+                            ": mesh '" + m.name + "'";
+  if (m.origin) {
+    g.origin = *m.origin;
+    g.spacing = *m.spacing;
+    g.cells = *m.cells;
+    return g;
+  }
+  std::array<double, 6> box{};
+  if (m.bounds_particles_box) {
+    if (!particles_box) throw ConfigError(where + ": bounds: particles_box needs the dump's BOX BOUNDS");
+    box = *particles_box;
+    for (int d = 0; d < 3; ++d)
+      if (!(box[2 * d + 1] > box[2 * d]))
+        throw ConfigError(where + ": the dump's BOX BOUNDS are empty in direction " + "xyz"[d] +
+                          "; give origin, spacing and cells instead of bounds: particles_box");
+  } else {
+    box = *m.bounds;
+  }
+  std::string notes;
+  for (int d = 0; d < 3; ++d) {
+    const double lo = box[2 * d], len = box[2 * d + 1] - box[2 * d];
+    g.origin[d] = lo;
+    if (m.cells) {
+      g.cells[d] = (*m.cells)[d];
+      g.spacing[d] = len / static_cast<double>(g.cells[d]);
+    } else {
+      const double h = (*m.spacing)[d];
+      const double ratio = len / h;
+      const double r = std::round(ratio);
+      if (r >= 1 && std::abs(ratio - r) <= 1e-6 * std::max(1.0, r)) {
+        g.cells[d] = static_cast<std::int64_t>(r);
+        g.spacing[d] = len / r;  // fit the box exactly
+      } else {
+        g.cells[d] = std::max<std::int64_t>(1, static_cast<std::int64_t>(std::ceil(ratio)));
+        g.spacing[d] = h;
+        notes += std::string(notes.empty() ? "" : "; ") + "spacing " + std::to_string(h) +
+                 " does not divide the box length " + std::to_string(len) + " in " + "xyz"[d] +
+                 ": the grid extends past the box to " + std::to_string(g.cells[d]) + " cells";
+      }
+    }
+  }
+  if (note) *note = notes;
+  return g;
+}
+
+std::string merge_options(const std::vector<std::string>& parts) {
+  std::vector<std::pair<std::string, std::string>> kv;
+  for (const auto& part : parts) {
+    std::istringstream in(part);
+    std::string tok;
+    while (in >> tok) {
+      const auto eq = tok.find('=');
+      if (eq == std::string::npos || eq == 0)
+        throw ConfigError("option '" + tok + "' is not of the form key=value");
+      const std::string k = tok.substr(0, eq), v = tok.substr(eq + 1);
+      auto it = std::find_if(kv.begin(), kv.end(), [&](const auto& p) { return p.first == k; });
+      if (it != kv.end())
+        it->second = v;
+      else
+        kv.emplace_back(k, v);
+    }
+  }
+  std::string s;
+  for (const auto& [k, v] : kv) s += (s.empty() ? "" : " ") + k + "=" + v;
+  return s;
+}
+
+}  // namespace vfe::apps

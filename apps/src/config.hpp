@@ -1,0 +1,74 @@
+// YAML scene configuration of `vfe run`.
+#pragma once
+
+#include <vfe/engine.hpp>
+
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace vfe::apps {
+
+/// Bad configuration; the message names the file, the line when known, and the problem.
+class ConfigError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// One mesh of the scene. Cartesian grids are given either by origin + spacing + cells, or
+/// by bounds (the particles' BOX BOUNDS or an explicit box) + spacing or cells.
+struct MeshSpec {
+  std::string name;
+  std::string type = "cartesian";
+  std::optional<std::array<double, 3>> origin;
+  std::optional<std::array<double, 3>> spacing;
+  std::optional<std::array<std::int64_t, 3>> cells;
+  bool bounds_particles_box = false;           ///< bounds: particles_box
+  std::optional<std::array<double, 6>> bounds; ///< bounds: [xlo, xhi, ylo, yhi, zlo, zhi]
+  int line = 0;                                ///< line in the config file (1-based, 0 unknown)
+};
+
+/// One method to run: engine method name, its own options, and a label for reports.
+struct MethodSpec {
+  std::string method;
+  std::string options;
+  std::string label;
+};
+
+struct SceneConfig {
+  std::string name;
+  std::filesystem::path source;          ///< the config file (for messages)
+  std::filesystem::path particles_file;  ///< resolved against the config's folder
+  std::int64_t frame = -1;               ///< 0-based, negative from the end (-1 = last)
+  std::vector<MeshSpec> meshes;
+  std::vector<MethodSpec> methods;
+  MethodSpec reference{"exact", "", "exact"};
+  int threads = 0;
+  int repeats = 5;
+  std::string options;                   ///< applied to every method (before its own)
+  std::filesystem::path output;          ///< resolved against the config's folder
+  bool vtk = false;
+};
+
+/// Reads and validates a config file. Relative paths in it are relative to its folder.
+SceneConfig load_config(const std::filesystem::path& file);
+
+/// Parses config text; base_dir resolves relative paths, source names the text in messages.
+SceneConfig parse_config(const std::string& text, const std::filesystem::path& base_dir,
+                         const std::string& source);
+
+/// The grid of a mesh. particles_box (xlo xhi ylo yhi zlo zhi) is needed for
+/// bounds: particles_box. When spacing does not divide the box, the grid keeps the spacing,
+/// rounds the cell count up and *note says so. Throws ConfigError.
+vfe::CartesianGridSpec resolve_grid(const MeshSpec& mesh, const std::array<double, 6>* particles_box,
+                                    const std::string& source, std::string* note = nullptr);
+
+/// Merges option strings "key=value ..." left to right (a later key replaces an earlier
+/// one, keeping the first position). Throws ConfigError on a token without '='.
+std::string merge_options(const std::vector<std::string>& parts);
+
+}  // namespace vfe::apps

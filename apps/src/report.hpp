@@ -1,0 +1,69 @@
+// Reports of `vfe run`: a text table per mesh, results.json and results.csv.
+#pragma once
+
+#include <vfe/measures.hpp>
+
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <ostream>
+#include <string>
+#include <vector>
+
+namespace vfe::apps {
+
+/// One mesh x method result.
+struct ResultRow {
+  std::string mesh;
+  std::string label;
+  std::string method;
+  std::string options;  ///< the engine's full option string for this run
+  bool is_reference = false;
+  std::array<std::int64_t, 3> grid{0, 0, 0};
+  std::int64_t cells = 0;
+  double cell_size = 0;  ///< cube root of the cell volume
+  double chi = 0;        ///< cell_size / mean particle diameter
+  std::int64_t particles = 0;
+  int threads = 0;  ///< threads used (0 in the config = all, resolved to the count)
+  int repeats = 0;
+  double time_median_ms = 0;
+  double time_min_ms = 0;
+  double particles_per_s = 0;
+  double sub_elements_per_s = 0;
+  std::int64_t sub_elements = 0;
+  std::int64_t fast_path_particles = 0;
+  std::int64_t particle_grid_min = 0;
+  std::int64_t particle_grid_max = 0;
+  vfe::AccuracyMeasures accuracy;
+  double particle_volume = 0;
+  double deposited_volume = 0;
+  double dropped_volume = 0;
+  double clipped_volume = 0;
+  std::int64_t outside_particles = 0;
+};
+
+/// Facts of the whole run, written at the top of results.json.
+struct RunInfo {
+  std::string scene;
+  std::string particles_file;  ///< file name of the dump
+  std::int64_t timestep = 0;
+  std::int64_t particles = 0;
+  double particle_volume = 0;
+  double mean_diameter = 0;
+  std::string reference;
+  int threads = 0;
+  int repeats = 0;
+  std::string options;
+  std::string version;
+};
+
+/// "a-b", or "a" when a == b.
+std::string grid_range(std::int64_t lo, std::int64_t hi);
+
+/// Prints the table of one mesh's rows (a title line, a header, one line per row).
+void print_table(std::ostream& out, const std::string& title, const std::vector<ResultRow>& rows);
+
+void write_json(const std::filesystem::path& file, const RunInfo& info, const std::vector<ResultRow>& rows);
+void write_csv(const std::filesystem::path& file, const RunInfo& info, const std::vector<ResultRow>& rows);
+
+}  // namespace vfe::apps

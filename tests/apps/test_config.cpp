@@ -1,0 +1,226 @@
+// YAML scene config: the schema, relative paths, and errors that name the key and file.
+#include "config.hpp"
+#include "test_util.hpp"
+
+#include <gtest/gtest.h>
+
+#include <string>
+
+using namespace vfe::apps;
+namespace fs = std::filesystem;
+
+namespace {
+
+const std::string kGood = R"(name: bed_mono
+particles:
+  file: ../data/liggghts/bed_mono_final.dump.gz
+meshes:
+  - name: cartesian_2mm
+    type: cartesian
+    origin: [0, 0, 0]
+    spacing: [0.002, 0.002, 0.002]
+    cells: [10, 10, 30]
+  - name: cartesian_1mm
+    type: cartesian
+    bounds: particles_box
+    spacing: 0.001
+methods:
+  - direct
+  - pmm
+  - {method: pmm, options: "particle_grid=27 template=fibonacci", label: pmm_fib27}
+  - {method: pmm, options: "particle_grid=8"}
+reference: exact
+threads: 2
+repeats: 3
+options: "outside=nearest"
+output: ../out/bed_mono
+)";
+
+/// Message of the ConfigError that parsing text throws ("" if none).
+std::string error_of(const std::string& text) {
+  try {
+    (void)parse_config(text, "/cfg", "scene.yaml");
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+std::string replaced(std::string s, const std::string& from, const std::string& to) {
+  const auto p = s.find(from);
+  if (p == std::string::npos) throw std::logic_error("no '" + from + "' in the config text");
+  return s.replace(p, from.size(), to);
+}
+
+}  // namespace
+
+TEST(Config, ParsesTheSchema) {
+  const SceneConfig c = parse_config(kGood, "/cfg/configs", "bed.yaml");
+  EXPECT_EQ(c.name, "bed_mono");
+  EXPECT_EQ(c.particles_file, fs::path("/cfg/data/liggghts/bed_mono_final.dump.gz"));
+  EXPECT_EQ(c.frame, -1);
+  ASSERT_EQ(c.meshes.size(), 2u);
+  EXPECT_EQ(c.meshes[0].name, "cartesian_2mm");
+  ASSERT_TRUE(c.meshes[0].origin && c.meshes[0].spacing && c.meshes[0].cells);
+  EXPECT_EQ((*c.meshes[0].cells)[2], 30);
+  EXPECT_EQ((*c.meshes[0].spacing)[1], 0.002);
+  EXPECT_EQ(c.meshes[0].line, 5);
+  EXPECT_TRUE(c.meshes[1].bounds_particles_box);
+  ASSERT_TRUE(c.meshes[1].spacing);
+  EXPECT_EQ((*c.meshes[1].spacing)[2], 0.001);  // a single number for all directions
+  ASSERT_EQ(c.methods.size(), 4u);
+  EXPECT_EQ(c.methods[0].method, "direct");
+  EXPECT_EQ(c.methods[0].label, "direct");
+  EXPECT_EQ(c.methods[1].options, "");
+  EXPECT_EQ(c.methods[2].method, "pmm");
+  EXPECT_EQ(c.methods[2].options, "particle_grid=27 template=fibonacci");
+  EXPECT_EQ(c.methods[2].label, "pmm_fib27");
+  EXPECT_EQ(c.methods[3].label, "pmm_particle_grid-8");  // a label made from the options
+  EXPECT_EQ(c.reference.method, "exact");
+  EXPECT_EQ(c.reference.label, "exact");
+  EXPECT_EQ(c.threads, 2);
+  EXPECT_EQ(c.repeats, 3);
+  EXPECT_EQ(c.options, "outside=nearest");
+  EXPECT_EQ(c.output, fs::path("/cfg/out/bed_mono"));
+  EXPECT_FALSE(c.vtk);
+}
+
+TEST(Config, DefaultsAndShortForms) {
+  const SceneConfig c = parse_config(
+      "particles: p.dump\nmeshes: [{origin: 0, spacing: 1, cells: 4}]\nmethods: [direct]\n", "/a", "/a/s.yaml");
+  EXPECT_EQ(c.name, "s");
+  EXPECT_EQ(c.particles_file, fs::path("/a/p.dump"));
+  EXPECT_EQ(c.meshes[0].name, "mesh1");
+  EXPECT_EQ((*c.meshes[0].cells)[1], 4);
+  EXPECT_EQ(c.reference.method, "exact");
+  EXPECT_EQ(c.threads, 0);
+  EXPECT_EQ(c.repeats, 5);
+  EXPECT_EQ(c.output, fs::path("/a/out/s"));
+}
+
+TEST(Config, ReferenceByLabelAndFrame) {
+  std::string text = replaced(kGood, "reference: exact", "reference: pmm_fib27");
+  text = replaced(text, "  file: ../data", "  frame: first\n  file: ../data");
+  const SceneConfig c = parse_config(text, "/cfg", "bed.yaml");
+  EXPECT_EQ(c.reference.label, "pmm_fib27");
+  EXPECT_EQ(c.reference.options, "particle_grid=27 template=fibonacci");
+  EXPECT_EQ(c.frame, 0);
+}
+
+TEST(Config, LoadsFileRelativeToItsFolder) {
+  test::TempDir dir;
+  fs::create_directories(dir / "configs");
+  test::write_text(dir / "configs" / "scene.yaml", kGood);
+  const SceneConfig c = load_config(dir / "configs" / "scene.yaml");
+  EXPECT_EQ(c.particles_file, (dir.path() / "data/liggghts/bed_mono_final.dump.gz").lexically_normal());
+  EXPECT_EQ(c.output, (dir.path() / "out/bed_mono").lexically_normal());
+}
+
+TEST(ConfigErrors, UnknownKeyIsNamedWithFileAndLine) {
+  std::string msg = error_of(replaced(kGood, "threads: 2", "thread: 2"));
+  EXPECT_NE(msg.find("scene.yaml:20:"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("unknown key 'thread'"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("threads"), std::string::npos) << msg;  // lists the allowed keys
+
+  msg = error_of(replaced(kGood, "    spacing: 0.001", "    spacing: 0.001\n    celss: 4"));
+  EXPECT_NE(msg.find("unknown key 'celss'"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("mesh 'cartesian_1mm'"), std::string::npos) << msg;
+
+  msg = error_of(replaced(kGood, "label: pmm_fib27", "lable: pmm_fib27"));
+  EXPECT_NE(msg.find("unknown key 'lable'"), std::string::npos) << msg;
+
+  msg = error_of(replaced(kGood, "  file: ../data", "  fiel: ../data"));
+  EXPECT_NE(msg.find("unknown key 'fiel'"), std::string::npos) << msg;
+}
+
+TEST(ConfigErrors, MissingMesh) {
+  std::string text = kGood.substr(0, kGood.find("meshes:")) + kGood.substr(kGood.find("methods:"));
+  std::string msg = error_of(text);
+  EXPECT_NE(msg.find("scene.yaml"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("no mesh"), std::string::npos) << msg;
+
+  msg = error_of(replaced(text, "methods:", "meshes: []\nmethods:"));
+  EXPECT_NE(msg.find("no mesh"), std::string::npos) << msg;
+}
+
+TEST(ConfigErrors, BadMeshGeometry) {
+  EXPECT_NE(error_of(replaced(kGood, "cells: [10, 10, 30]", "cells: [10, 10]")).find("3 integers"), std::string::npos);
+  EXPECT_NE(error_of(replaced(kGood, "cells: [10, 10, 30]", "cells: [10, 0, 30]")).find("cells must be >= 1"),
+            std::string::npos);
+  EXPECT_NE(error_of(replaced(kGood, "spacing: [0.002, 0.002, 0.002]", "spacing: [0.002, abc, 0.002]"))
+                .find("must be a number, got 'abc'"),
+            std::string::npos);
+  EXPECT_NE(error_of(replaced(kGood, "    cells: [10, 10, 30]\n", "")).find("needs both 'spacing' and 'cells'"),
+            std::string::npos);
+  EXPECT_NE(error_of(replaced(kGood, "type: cartesian", "type: polymesh")).find("not supported"), std::string::npos);
+  EXPECT_NE(error_of(replaced(kGood, "bounds: particles_box", "bounds: everything")).find("particles_box"),
+            std::string::npos);
+}
+
+TEST(ConfigErrors, BadMethodEntry) {
+  std::string msg = error_of(replaced(kGood, "  - direct\n", "  - [direct]\n"));
+  EXPECT_NE(msg.find("method entry 1"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("scene.yaml:15:"), std::string::npos) << msg;
+
+  msg = error_of(replaced(kGood, "{method: pmm, options: \"particle_grid=8\"}", "{options: \"particle_grid=8\"}"));
+  EXPECT_NE(msg.find("method entry 4 has no 'method' key"), std::string::npos) << msg;
+
+  msg = error_of(replaced(kGood, "options: \"particle_grid=8\"", "options: \"particle_grid 8\""));
+  EXPECT_NE(msg.find("not of the form key=value"), std::string::npos) << msg;
+
+  msg = error_of(replaced(kGood, "  - direct\n", "  - pmm\n"));
+  EXPECT_NE(msg.find("two methods have the label 'pmm'"), std::string::npos) << msg;
+
+  msg = error_of(replaced(kGood, "  - direct\n", "  - direct method\n"));
+  EXPECT_NE(msg.find("is not a method name"), std::string::npos) << msg;
+
+  const std::string no_methods =
+      kGood.substr(0, kGood.find("methods:")) + "methods: []\n" + kGood.substr(kGood.find("reference:"));
+  msg = error_of(no_methods);
+  EXPECT_NE(msg.find("no method"), std::string::npos) << msg;
+}
+
+TEST(ConfigErrors, BadValuesAndYaml) {
+  EXPECT_NE(error_of(replaced(kGood, "repeats: 3", "repeats: 0")).find("repeats must be >= 1"), std::string::npos);
+  EXPECT_NE(error_of(replaced(kGood, "threads: 2", "threads: many")).find("threads must be an integer"),
+            std::string::npos);
+  const std::string msg = error_of(replaced(kGood, "  - pmm\n", "  - pmm\n   - : [\n"));
+  EXPECT_NE(msg.find("scene.yaml:"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("not valid YAML"), std::string::npos) << msg;
+  EXPECT_NE(error_of("").find("empty"), std::string::npos);
+  EXPECT_NE(error_of("- a\n- b\n").find("must be a map"), std::string::npos);
+
+  try {
+    (void)load_config("/nonexistent_folder_of_vfe/none.yaml");
+    FAIL() << "no error";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("no such config file"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Config, ResolvesGrids) {
+  const SceneConfig c = parse_config(kGood, "/cfg", "bed.yaml");
+  const std::array<double, 6> box{0, 0.02, 0, 0.02, 0, 0.06};
+  auto g = resolve_grid(c.meshes[0], &box, "bed.yaml");
+  EXPECT_EQ(g.cells, (std::array<std::int64_t, 3>{10, 10, 30}));
+  std::string note;
+  g = resolve_grid(c.meshes[1], &box, "bed.yaml", &note);
+  EXPECT_EQ(g.cells, (std::array<std::int64_t, 3>{20, 20, 60}));
+  EXPECT_NEAR(g.spacing[2], 0.001, 1e-15);
+  EXPECT_TRUE(note.empty()) << note;
+
+  MeshSpec m = c.meshes[1];
+  m.spacing = std::array<double, 3>{0.003, 0.003, 0.003};
+  g = resolve_grid(m, &box, "bed.yaml", &note);
+  EXPECT_EQ(g.cells, (std::array<std::int64_t, 3>{7, 7, 20}));
+  EXPECT_EQ(g.spacing[0], 0.003);
+  EXPECT_FALSE(note.empty());
+  EXPECT_THROW(resolve_grid(c.meshes[1], nullptr, "bed.yaml"), ConfigError);
+}
+
+TEST(Config, MergesOptions) {
+  EXPECT_EQ(merge_options({"method=pmm particle_grid=auto threads=0", "threads=2", "particle_grid=27 outside=drop"}),
+            "method=pmm particle_grid=27 threads=2 outside=drop");
+  EXPECT_EQ(merge_options({"", "  "}), "");
+  EXPECT_THROW(merge_options({"novalue"}), ConfigError);
+}

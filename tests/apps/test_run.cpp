@@ -1,0 +1,198 @@
+// The run driver end to end on a tiny generated scene: a dump and a config in a temporary
+// folder, every method against exact, reports written.
+#include "config.hpp"
+#include "dump_reader.hpp"
+#include "run.hpp"
+#include "test_util.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <map>
+#include <random>
+#include <sstream>
+#include <string>
+#include <vector>
+
+using namespace vfe::apps;
+namespace fs = std::filesystem;
+
+namespace {
+
+/// n spheres of radius 0.35-0.6 mm inside the box [0, 8 mm]^3 (plus one empty frame first).
+std::string tiny_dump(int n, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(0, 1);
+  std::ostringstream o;
+  o.precision(10);
+  o << "ITEM: TIMESTEP\n0\nITEM: NUMBER OF ATOMS\n0\nITEM: BOX BOUNDS ff ff ff\n0 0.008\n0 0.008\n0 0.008\n"
+    << "ITEM: ATOMS id type x y z radius \n";
+  o << "ITEM: TIMESTEP\n1000\nITEM: NUMBER OF ATOMS\n" << n
+    << "\nITEM: BOX BOUNDS ff ff ff\n0 0.008\n0 0.008\n0 0.008\nITEM: ATOMS id type x y z radius \n";
+  for (int i = 0; i < n; ++i) {
+    const double r = 0.00035 + 0.00025 * u(rng);
+    o << i + 1 << " 1";
+    for (int d = 0; d < 3; ++d) o << ' ' << r + (0.008 - 2 * r) * u(rng);
+    o << ' ' << r << " \n";
+  }
+  return o.str();
+}
+
+const std::string kConfig = R"(name: tiny
+particles:
+  file: data/tiny.dump.gz
+meshes:
+  - name: coarse
+    origin: [0, 0, 0]
+    spacing: 0.002
+    cells: [4, 4, 4]
+  - name: fine
+    bounds: particles_box
+    spacing: 0.001
+methods:
+  - direct
+  - pmm
+  - {method: pmm, options: "particle_grid=27", label: pmm_27}
+  - exact
+reference: exact
+threads: 1
+repeats: 2
+output: out
+)";
+
+std::vector<std::map<std::string, std::string>> read_csv(const fs::path& file) {
+  std::istringstream in(test::read_text(file));
+  std::string line;
+  std::vector<std::string> head;
+  std::vector<std::map<std::string, std::string>> rows;
+  auto split = [](const std::string& s) {
+    std::vector<std::string> v;
+    std::string cell;
+    std::istringstream ls(s);
+    while (std::getline(ls, cell, ',')) v.push_back(cell);
+    return v;
+  };
+  if (std::getline(in, line)) head = split(line);
+  while (std::getline(in, line)) {
+    const auto v = split(line);
+    std::map<std::string, std::string> row;
+    for (std::size_t i = 0; i < head.size() && i < v.size(); ++i) row[head[i]] = v[i];
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+struct Scene {
+  test::TempDir dir;
+  fs::path config;
+  explicit Scene(const std::string& config_text = kConfig, int n = 60) {
+    fs::create_directories(dir / "data");
+    test::write_gzip(dir / "data" / "tiny.dump.gz", tiny_dump(n, 7));
+    config = dir / "tiny.yaml";
+    test::write_text(config, config_text);
+  }
+};
+
+}  // namespace
+
+TEST(RunDriver, TinySceneEndToEnd) {
+  Scene scene;
+  const SceneConfig cfg = load_config(scene.config);
+  std::ostringstream table;
+  RunOptions opt;
+  opt.table = &table;
+  opt.vtk = true;
+  const RunResult res = run_scene(cfg, opt);
+
+  EXPECT_EQ(res.output, (scene.dir.path() / "out").lexically_normal());
+  ASSERT_EQ(res.rows.size(), 8u);  // 2 meshes x 4 methods
+  const fs::path csv = res.output / "results.csv";
+  ASSERT_TRUE(fs::exists(csv));
+  ASSERT_TRUE(fs::exists(res.output / "results.json"));
+  EXPECT_TRUE(fs::exists(res.output / "coarse.vti"));
+  EXPECT_TRUE(fs::exists(res.output / "fine.vti"));
+  EXPECT_NE(test::read_text(res.output / "coarse.vti").find("voidfraction_pmm_27"), std::string::npos);
+
+  const auto rows = read_csv(csv);
+  ASSERT_EQ(rows.size(), 8u);
+  int exact_rows = 0;
+  for (const auto& row : rows) {
+    SCOPED_TRACE(row.at("mesh") + " / " + row.at("method"));
+    EXPECT_EQ(row.at("scene"), "tiny");
+    EXPECT_EQ(row.at("particles"), "60");
+    EXPECT_EQ(row.at("threads"), "1");
+    EXPECT_EQ(row.at("repeats"), "2");
+    EXPECT_LT(std::stod(row.at("volume_error")), 1e-9);
+    EXPECT_GT(std::stod(row.at("time_median_ms")), 0.0);
+    const double chi = std::stod(row.at("chi"));
+    EXPECT_GT(chi, 0.5);
+    EXPECT_LT(chi, 3.0);
+    if (row.at("method") == "exact") {
+      ++exact_rows;
+      EXPECT_EQ(row.at("reference"), "1");
+      EXPECT_EQ(std::stod(row.at("theta")), 0.0);
+      EXPECT_LT(std::stod(row.at("volume_error")), 1e-12);
+    }
+  }
+  EXPECT_EQ(exact_rows, 2);
+  EXPECT_EQ(rows[4].at("nx"), "8");  // fine: the 8 mm box in 1 mm cells
+  EXPECT_EQ(rows[4].at("cells"), "512");
+
+  // The table names every method.
+  const std::string t = table.str();
+  for (const char* label : {"direct", "pmm", "pmm_27", "exact", "mesh coarse", "mesh fine"})
+    EXPECT_NE(t.find(label), std::string::npos) << label << "\n" << t;
+
+  // The JSON holds the same rows.
+  const std::string json = test::read_text(res.output / "results.json");
+  EXPECT_NE(json.find("\"scene\": \"tiny\""), std::string::npos);
+  EXPECT_NE(json.find("\"method\": \"pmm_27\""), std::string::npos);
+}
+
+TEST(RunDriver, CommandLineOverridesAndEmptyFrame) {
+  Scene scene;
+  std::string text = kConfig;
+  text.replace(text.find("  file: data/tiny.dump.gz"), 25, "  file: data/tiny.dump.gz\n  frame: first");
+  test::write_text(scene.config, text);
+  RunOptions opt;
+  opt.output = scene.dir / "elsewhere";
+  opt.repeats = 1;
+  opt.threads = 2;
+  const RunResult res = run_scene(load_config(scene.config), opt);
+  ASSERT_EQ(res.rows.size(), 8u);
+  EXPECT_TRUE(fs::exists(scene.dir / "elsewhere" / "results.csv"));
+  for (const auto& r : res.rows) {
+    EXPECT_EQ(r.particles, 0);
+    EXPECT_EQ(r.repeats, 1);
+    EXPECT_EQ(r.threads, 2);
+    EXPECT_EQ(r.accuracy.theta, 0.0);
+  }
+}
+
+TEST(RunDriver, BadMethodOptionFailsBeforeAnyWork) {
+  std::string text = kConfig;
+  text.replace(text.find("particle_grid=27"), 16, "particle_grid=lots");
+  Scene scene(text);
+  try {
+    (void)run_scene(load_config(scene.config), RunOptions{});
+    FAIL() << "no error";
+  } catch (const ConfigError& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("tiny.yaml"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("pmm_27"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("particle_grid"), std::string::npos) << msg;
+  }
+  EXPECT_FALSE(fs::exists(scene.dir / "out"));
+}
+
+TEST(RunDriver, MissingParticleFileIsNamed) {
+  std::string text = kConfig;
+  text.replace(text.find("data/tiny.dump.gz"), 17, "data/none.dump.gz");
+  Scene scene(text);
+  try {
+    (void)run_scene(load_config(scene.config), RunOptions{});
+    FAIL() << "no error";
+  } catch (const DumpError& e) {
+    EXPECT_NE(std::string(e.what()).find("none.dump.gz"), std::string::npos) << e.what();
+  }
+}
