@@ -23,10 +23,19 @@ class CartesianGrid {
   const std::array<std::int64_t, 3>& cells() const { return n_; }
   Eigen::Vector3d upper() const { return o_ + h_.cwiseProduct(Eigen::Vector3d(double(n_[0]), double(n_[1]), double(n_[2]))); }
 
-  /// Unclamped integer cell coordinate of x along axis d (floor, may be outside [0, n)).
-  std::int64_t axis_index(int d, double x) const {
-    return static_cast<std::int64_t>(std::floor((x - o_[d]) * inv_h_[d]));
+  /// Integer cell coordinate of x along axis d (floor; may be outside [0, n), and is
+  /// bounded by +-2^60 so that far-away points stay representable).
+  std::int64_t axis_index(int d, double x) const { return fast_floor((x - o_[d]) * inv_h_[d]); }
+
+  /// floor(t) as an integer without a libm call (baseline x86-64 has no SSE4.1 round).
+  static std::int64_t fast_floor(double t) {
+    constexpr double kBound = 1.152921504606846976e18;  // 2^60
+    t = t < -kBound ? -kBound : (t > kBound ? kBound : t);
+    const auto i = static_cast<std::int64_t>(t);
+    return i - (t < static_cast<double>(i));
   }
+  /// Coordinate of x in cell units along axis d (the argument of axis_index's floor).
+  double axis_coordinate(int d, double x) const { return (x - o_[d]) * inv_h_[d]; }
   std::int64_t clamp_axis(int d, std::int64_t i) const { return i < 0 ? 0 : (i >= n_[d] ? n_[d] - 1 : i); }
   std::int64_t index(std::int64_t i, std::int64_t j, std::int64_t k) const { return i + n_[0] * (j + n_[1] * k); }
 

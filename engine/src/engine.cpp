@@ -45,6 +45,7 @@ constexpr std::int64_t kSortedBlock = 512;
 struct Scratch {
   std::vector<Deposit> deposits;  // one particle's deposits, merged by cell
   std::vector<double> nodes[3], orthant, patch;  // exact method
+  std::vector<double> window;                    // pmm: volume per cell of the particle's window
   std::int64_t fast_path = 0, sub_elements = 0, outside_particles = 0;
   std::int64_t first_error = std::numeric_limits<std::int64_t>::max();
   std::int64_t grid_min = std::numeric_limits<std::int64_t>::max(), grid_max = 0;
@@ -212,14 +213,16 @@ struct Engine::Impl {
 
   // --- per-particle kernels -------------------------------------------------------------
 
-  void outside(Scratch& s, std::int64_t p, double volume, const Eigen::Vector3d& point,
+  /// Volume that lies outside the mesh, handled by the `outside` policy. nearest_cell is
+  /// the mesh cell nearest to where the volume is.
+  void outside(Scratch& s, std::int64_t p, double volume, std::int64_t nearest_cell,
                const Eigen::Vector3d& centre, bool& flagged) {
     if (!flagged) {
       flagged = true;
       ++s.outside_particles;
     }
     switch (opts.outside) {
-      case Outside::nearest: s.add(grid.nearest(point), volume); break;
+      case Outside::nearest: s.add(nearest_cell, volume); break;
       case Outside::centre: s.add(grid.nearest(centre), volume); break;
       case Outside::drop: s.add(grid.cell_count(), volume); break;  // the dropped-volume slot
       case Outside::error: s.first_error = std::min(s.first_error, p); break;
@@ -244,7 +247,7 @@ struct Engine::Impl {
     if (cell >= 0)
       s.add(cell, volume);
     else
-      outside(s, p, volume, c, c, flagged);
+      outside(s, p, volume, grid.nearest(c), c, flagged);
   }
 
   void pmm_particle(Scratch& s, std::int64_t p, const Eigen::Vector3d& c, double r, double volume,
@@ -259,21 +262,86 @@ struct Engine::Impl {
       return;
     }
     s.sub_elements += n;
-    Eigen::Matrix3d transform;
+    Eigen::Matrix3d rotation;
     switch (opts.orientation) {
-      case Orientation::none: transform = Eigen::Matrix3d::Identity() * r; break;
-      case Orientation::random: transform = kernels::random_rotation(std::uint64_t(p), opts.seed) * r; break;
-      case Orientation::given: transform = kernels::rotation_from_quaternion(q) * r; break;
+      case Orientation::none: rotation.setIdentity(); break;
+      case Orientation::random: rotation = kernels::random_rotation(std::uint64_t(p), opts.seed); break;
+      case Orientation::given: rotation = kernels::rotation_from_quaternion(q); break;
     }
-    bool flagged = false;
+    // Map template points straight to cell units relative to the window of cells the
+    // particle can reach, so locating is a truncation and a clamp per axis and deposits
+    // accumulate without a search.
+    const Window w = window(c, r * t.reach);
+    const Eigen::Vector3d inv_h = grid.spacing().cwiseInverse();
+    const Eigen::Matrix3d to_cells = inv_h.asDiagonal() * rotation * r;
+    Eigen::Vector3d base;
+    for (int d = 0; d < 3; ++d) base[d] = grid.axis_coordinate(d, c[d]) - double(w.lo[d]);
+    if (base.cwiseAbs().maxCoeff() > 0x1p40) {  // absurdly far from the mesh: one point
+      bool flagged = false;
+      outside(s, p, volume, grid.nearest(c), c, flagged);
+      return;
+    }
+    s.window.assign(static_cast<std::size_t>(w.m[0] * w.m[1] * w.m[2]), 0.0);
+    const std::int64_t m0 = w.m[0], m1 = w.m[1], m2 = w.m[2];
     kernels::pmm_deposit(
-        t, c, transform, volume, [this](const Eigen::Vector3d& x) { return grid.locate(x); },
-        [&](std::int64_t cell, const Eigen::Vector3d& x, double v) {
-          if (cell >= 0)
-            s.add(cell, v);
+        t, base, to_cells, volume,
+        [m0, m1, m2](const Eigen::Vector3d& x) {
+          // Truncation equals floor after the clamp at 0 (x > -2^40 here).
+          const std::int64_t i = std::clamp<std::int64_t>(static_cast<std::int64_t>(x[0]), 0, m0 - 1);
+          const std::int64_t j = std::clamp<std::int64_t>(static_cast<std::int64_t>(x[1]), 0, m1 - 1);
+          const std::int64_t k = std::clamp<std::int64_t>(static_cast<std::int64_t>(x[2]), 0, m2 - 1);
+          return i + m0 * (j + m1 * k);
+        },
+        [&s](std::int64_t local, const Eigen::Vector3d&, double v) { s.window[local] += v; });
+    emit_window(s, p, w, c);
+  }
+
+  /// Cells a sphere of the given reach around c can touch, clamped to one layer of
+  /// virtual cells around the mesh (coordinates -1 and n stand for "beyond this side").
+  struct Window {
+    std::int64_t lo[3];
+    std::int64_t m[3];
+  };
+  Window window(const Eigen::Vector3d& c, double reach) const {
+    Window w;
+    for (int d = 0; d < 3; ++d) {
+      const std::int64_t n = grid.cells()[d];
+      w.lo[d] = std::clamp<std::int64_t>(grid.axis_index(d, c[d] - reach), -1, n);
+      w.m[d] = std::clamp<std::int64_t>(grid.axis_index(d, c[d] + reach), -1, n) - w.lo[d] + 1;
+    }
+    return w;
+  }
+
+  /// Turns a particle's window into deposits: cells of the mesh first (distinct, no
+  /// search), then the virtual cells beyond the mesh through the outside policy.
+  void emit_window(Scratch& s, std::int64_t p, const Window& w, const Eigen::Vector3d& c) {
+    bool any_outside = false;
+    std::size_t local = 0;
+    for (std::int64_t k = 0; k < w.m[2]; ++k)
+      for (std::int64_t j = 0; j < w.m[1]; ++j)
+        for (std::int64_t i = 0; i < w.m[0]; ++i, ++local) {
+          const double v = s.window[local];
+          if (v == 0.0) continue;
+          const std::int64_t gi = w.lo[0] + i, gj = w.lo[1] + j, gk = w.lo[2] + k;
+          if (gi < 0 || gj < 0 || gk < 0 || gi >= grid.cells()[0] || gj >= grid.cells()[1] || gk >= grid.cells()[2])
+            any_outside = true;
           else
-            outside(s, p, v, x, c, flagged);
-        });
+            s.deposits.push_back({grid.index(gi, gj, gk), v});
+        }
+    if (!any_outside) return;
+    bool flagged = false;
+    local = 0;
+    for (std::int64_t k = 0; k < w.m[2]; ++k)
+      for (std::int64_t j = 0; j < w.m[1]; ++j)
+        for (std::int64_t i = 0; i < w.m[0]; ++i, ++local) {
+          const double v = s.window[local];
+          const std::int64_t g[3] = {w.lo[0] + i, w.lo[1] + j, w.lo[2] + k};
+          bool out = false;
+          for (int d = 0; d < 3; ++d) out |= g[d] < 0 || g[d] >= grid.cells()[d];
+          if (v == 0.0 || !out) continue;
+          outside(s, p, v, grid.index(grid.clamp_axis(0, g[0]), grid.clamp_axis(1, g[1]), grid.clamp_axis(2, g[2])),
+                  c, flagged);
+        }
   }
 
   void exact_particle(Scratch& s, std::int64_t p, const Eigen::Vector3d& c, double r, double volume) {
@@ -291,7 +359,7 @@ struct Engine::Impl {
     }
     bool flagged = false;
     if (empty) {
-      outside(s, p, volume, c, c, flagged);
+      outside(s, p, volume, grid.nearest(c), c, flagged);
       return;
     }
     int m[3];
@@ -311,7 +379,7 @@ struct Engine::Impl {
                                    });
     // What the patch misses lies outside the mesh (beyond round-off).
     const double rest = volume - inside;
-    if (rest > 1e-12 * volume) outside(s, p, rest, c, c, flagged);
+    if (rest > 1e-12 * volume) outside(s, p, rest, grid.nearest(c), c, flagged);
   }
 
   // --- accumulation ---------------------------------------------------------------------

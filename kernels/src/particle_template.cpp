@@ -9,6 +9,11 @@ namespace vfe::kernels {
 
 namespace {
 
+void set_reach(ParticleTemplate& t) {
+  t.reach = 0;
+  for (const auto& p : t.points) t.reach = std::max(t.reach, p.norm());
+}
+
 constexpr double kPi = std::numbers::pi;
 
 // Integral of sqrt(1 - u^2) du (the polar factor sin(theta) of the x, y centroid).
@@ -74,6 +79,7 @@ ParticleTemplate make_spherical_template(int n) {
       }
     }
   }
+  set_reach(t);
   return t;
 }
 
@@ -113,6 +119,7 @@ ParticleTemplate make_fibonacci_template(int n) {
   }
   mean /= n;
   for (auto& p : t.points) p -= mean;
+  set_reach(t);
   return t;
 }
 

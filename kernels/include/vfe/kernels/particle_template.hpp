@@ -17,6 +17,7 @@ struct ParticleTemplate {
   /// Each sub-element's share of the particle volume; they sum to 1 (to round-off).
   std::vector<double> fractions;
   std::string family;  ///< "spherical" or "fibonacci"
+  double reach = 0;    ///< largest |point|: the template's points lie in this ball
   int shells = 0, bands = 0, sectors = 0;  ///< spherical family's layout; 0 for others
 
   std::size_t size() const { return points.size(); }
