@@ -1,0 +1,105 @@
+// Particle shapes in template units, their exact mass properties, and their PMM templates.
+#pragma once
+
+#include <vfe/kernels/particle_template.hpp>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace vfe::kernels {
+
+/// Closed triangle surface; triangles list vertex indices counter-clockwise seen from
+/// outside (outward normals).
+struct TriangleMesh {
+  std::vector<Eigen::Vector3d> vertices;
+  std::vector<Eigen::Vector3i> triangles;
+};
+
+/// "" when the mesh is closed and consistently oriented with outward normals (every edge
+/// used exactly twice, in opposite directions; positive enclosed volume), otherwise a
+/// message saying what is wrong and how to fix it.
+std::string check_closed_mesh(const TriangleMesh& mesh);
+
+/// Volume, centre of volume and second moment of volume about that centre
+/// (integral of (x - c)(x - c)^T dV).
+struct MassProperties {
+  double volume = 0;
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d second_moment = Eigen::Matrix3d::Zero();
+};
+
+/// Exact mass properties of a closed triangle mesh (divergence theorem over signed tetrahedra).
+MassProperties mesh_mass_properties(const TriangleMesh& mesh);
+
+/// Area of the union of disks (x, y, r) in the plane, exactly (Green's theorem over the
+/// exposed arcs), with its first moments (integrals of x and y over the union).
+struct DiskUnion {
+  double area = 0, moment_x = 0, moment_y = 0;
+};
+DiskUnion disk_union(const std::vector<Eigen::Vector3d>& disks);
+
+/// A body in its own template units, centred where its spec puts the origin (the
+/// particle's position). Sphere: radius 1.
+class Shape {
+ public:
+  enum class Kind { sphere, ellipsoid, superquadric, clump, mesh };
+
+  static Shape sphere();
+  /// Semi-axes a, b, c > 0.
+  static Shape ellipsoid(double a, double b, double c);
+  /// (|x/a|^(2/e2) + |y/b|^(2/e2))^(e2/e1) + |z/c|^(2/e1) <= 1, with 0.1 <= e1, e2 <= 2.
+  static Shape superquadric(double a, double b, double c, double e1, double e2);
+  /// Union of spheres (x, y, z, r); overlapping parts counted once.
+  static Shape clump(std::vector<Eigen::Vector4d> spheres);
+  /// Closed, consistently oriented triangle mesh (throws std::invalid_argument otherwise).
+  static Shape mesh(TriangleMesh mesh);
+
+  Kind kind() const { return kind_; }
+  /// Semi-axes (ellipsoid, superquadric; 1 1 1 for the sphere).
+  const Eigen::Vector3d& axes() const { return axes_; }
+  std::string description() const;
+  /// Exact volume (clump: union volume by exact slice areas integrated to 1e-12 relative).
+  double volume() const { return props_.volume; }
+  const Eigen::Vector3d& centroid() const { return props_.centroid; }
+  /// Second moment about the centroid: exact for sphere, ellipsoid and mesh; from the
+  /// template sampling (relative error ~1e-3) for superquadric and clump.
+  const Eigen::Matrix3d& second_moment() const { return props_.second_moment; }
+  const Eigen::AlignedBox3d& bounds() const { return bounds_; }
+
+  /// The z-intervals where the vertical line through (x, y) lies inside the body, sorted
+  /// and disjoint. `out` is cleared first.
+  void column(double x, double y, std::vector<std::pair<double, double>>& out) const;
+  bool contains(const Eigen::Vector3d& p) const;
+
+ private:
+  Kind kind_ = Kind::sphere;
+  Eigen::Vector3d axes_{1, 1, 1};
+  double e1_ = 1, e2_ = 1;
+  std::vector<Eigen::Vector4d> spheres_;
+  TriangleMesh mesh_;
+  MassProperties props_;
+  Eigen::AlignedBox3d bounds_;
+};
+
+/// Moments of a sampled body: sample points with equal volume weights.
+struct SampledBody {
+  std::vector<Eigen::Vector3d> points;
+  double cell_volume = 0;  ///< volume each sample stands for
+};
+
+/// Midpoint samples of the body on a regular grid of about `target` points inside it.
+SampledBody sample_shape(const Shape& shape, std::size_t target);
+
+/// PMM template of n sub-elements for the shape, in the shape's template units.
+/// Sphere and ellipsoid: the spherical template (mapped by the semi-axes): exact
+/// centroids and equal volumes. Others: the body is sampled on a fine grid and cut into n
+/// compact parts of equal volume by recursive bisection along the widest axis; each part
+/// is represented by its centroid. Volumes sum to 1 (fractions of the exact volume) and
+/// the template's centre of volume is moved onto the exact centroid.
+ParticleTemplate make_shape_template(const Shape& shape, int n);
+
+}  // namespace vfe::kernels

@@ -1,0 +1,430 @@
+#include <vfe/kernels/shape.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <map>
+#include <numbers>
+#include <numeric>
+#include <sstream>
+#include <stdexcept>
+
+namespace vfe::kernels {
+
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+constexpr double kTwoPi = 2 * std::numbers::pi;
+
+double beta(double x, double y) { return std::exp(std::lgamma(x) + std::lgamma(y) - std::lgamma(x + y)); }
+
+/// Second moment of the sampled body about `centre`, scaled to `volume`.
+Eigen::Matrix3d sampled_second_moment(const SampledBody& s, const Eigen::Vector3d& centre, double volume) {
+  Eigen::Matrix3d m = Eigen::Matrix3d::Zero();
+  for (const auto& p : s.points) m += (p - centre) * (p - centre).transpose();
+  return s.points.empty() ? m : m * (volume / double(s.points.size()));
+}
+
+/// Adaptive Simpson on a vector-valued integrand, to an absolute tolerance.
+using Vec4 = Eigen::Vector4d;
+Vec4 simpson(const std::function<Vec4(double)>& f, double a, double b, const Vec4& fa, const Vec4& fm, const Vec4& fb,
+             const Vec4& whole, double tol, int depth) {
+  const double m = 0.5 * (a + b), lm = 0.5 * (a + m), rm = 0.5 * (m + b);
+  const Vec4 flm = f(lm), frm = f(rm);
+  const Vec4 left = (m - a) / 6 * (fa + 4 * flm + fm), right = (b - m) / 6 * (fm + 4 * frm + fb);
+  const Vec4 delta = left + right - whole;
+  if (depth <= 0 || delta.cwiseAbs().maxCoeff() <= 15 * tol) return left + right + delta / 15;
+  return simpson(f, a, m, fa, flm, fm, left, tol / 2, depth - 1) + simpson(f, m, b, fm, frm, fb, right, tol / 2, depth - 1);
+}
+
+Vec4 integrate(const std::function<Vec4(double)>& f, double a, double b, double tol) {
+  const Vec4 fa = f(a), fb = f(b), fm = f(0.5 * (a + b));
+  return simpson(f, a, b, fa, fm, fb, (b - a) / 6 * (fa + 4 * fm + fb), tol, 40);
+}
+
+void merge_intervals(std::vector<std::pair<double, double>>& v) {
+  std::sort(v.begin(), v.end());
+  std::size_t w = 0;
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    if (w > 0 && v[i].first <= v[w - 1].second)
+      v[w - 1].second = std::max(v[w - 1].second, v[i].second);
+    else
+      v[w++] = v[i];
+  }
+  v.resize(w);
+}
+
+}  // namespace
+
+std::string check_closed_mesh(const TriangleMesh& mesh) {
+  std::ostringstream msg;
+  if (mesh.triangles.size() < 4) {
+    msg << "mesh has " << mesh.triangles.size() << " triangles; a closed surface needs at least 4";
+    return msg.str();
+  }
+  const int nv = static_cast<int>(mesh.vertices.size());
+  std::map<std::pair<int, int>, int> directed;
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+    const Eigen::Vector3i& tri = mesh.triangles[t];
+    for (int k = 0; k < 3; ++k) {
+      if (tri[k] < 0 || tri[k] >= nv) {
+        msg << "triangle " << t << " refers to vertex " << tri[k] << " but the mesh has " << nv << " vertices";
+        return msg.str();
+      }
+    }
+    if (tri[0] == tri[1] || tri[1] == tri[2] || tri[2] == tri[0]) {
+      msg << "triangle " << t << " repeats a vertex; remove degenerate triangles";
+      return msg.str();
+    }
+    for (int k = 0; k < 3; ++k)
+      if (++directed[{tri[k], tri[(k + 1) % 3]}] > 1) {
+        msg << "edge " << tri[k] << "-" << tri[(k + 1) % 3]
+            << " is used twice in the same direction (triangle " << t
+            << "): the triangles are not consistently oriented or the surface is not manifold";
+        return msg.str();
+      }
+  }
+  for (const auto& [edge, count] : directed)
+    if (!directed.count({edge.second, edge.first})) {
+      msg << "edge " << edge.first << "-" << edge.second
+          << " belongs to one triangle only: the surface is open (has a hole); close it";
+      return msg.str();
+    }
+  for (const auto& v : mesh.vertices)
+    if (!v.allFinite()) return "a vertex coordinate is not finite";
+  if (!(mesh_mass_properties(mesh).volume > 0))
+    return "the enclosed volume is not positive: the triangles' normals point inward; reverse their vertex order";
+  return "";
+}
+
+MassProperties mesh_mass_properties(const TriangleMesh& mesh) {
+  // Signed tetrahedra from a reference point inside the bounding box (less round-off).
+  Eigen::AlignedBox3d box;
+  for (const auto& v : mesh.vertices) box.extend(v);
+  const Eigen::Vector3d o = box.isEmpty() ? Eigen::Vector3d(Eigen::Vector3d::Zero()) : Eigen::Vector3d(box.center());
+  double vol = 0;
+  Eigen::Vector3d first = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d second = Eigen::Matrix3d::Zero();
+  for (const auto& t : mesh.triangles) {
+    const Eigen::Vector3d a = mesh.vertices[t[0]] - o, b = mesh.vertices[t[1]] - o, c = mesh.vertices[t[2]] - o;
+    const double v = a.dot(b.cross(c)) / 6.0;
+    const Eigen::Vector3d s = a + b + c;
+    vol += v;
+    first += v * s / 4.0;
+    // Tetrahedron (0, a, b, c): integral of x x^T = V/20 (sum p p^T + (sum p)(sum p)^T).
+    second += v / 20.0 * (a * a.transpose() + b * b.transpose() + c * c.transpose() + s * s.transpose());
+  }
+  MassProperties m;
+  m.volume = vol;
+  if (vol != 0) {
+    const Eigen::Vector3d c = first / vol;
+    m.centroid = c + o;
+    m.second_moment = second - vol * c * c.transpose();
+  }
+  return m;
+}
+
+DiskUnion disk_union(const std::vector<Eigen::Vector3d>& disks) {
+  DiskUnion u;
+  std::vector<std::pair<double, double>> covered;
+  for (std::size_t i = 0; i < disks.size(); ++i) {
+    const double cx = disks[i][0], cy = disks[i][1], r = disks[i][2];
+    if (!(r > 0)) continue;
+    covered.clear();
+    bool hidden = false;
+    for (std::size_t j = 0; j < disks.size() && !hidden; ++j) {
+      if (j == i || !(disks[j][2] > 0)) continue;
+      const double dx = disks[j][0] - cx, dy = disks[j][1] - cy, rj = disks[j][2];
+      const double d = std::hypot(dx, dy);
+      // Inside another disk (an identical disk hides only the later copy).
+      if (d + r < rj || (d + r == rj && (r < rj || j < i))) {
+        hidden = true;
+        break;
+      }
+      if (d >= r + rj || d + rj <= r) continue;
+      const double alpha = std::atan2(dy, dx);
+      const double beta = std::acos(std::clamp((r * r + d * d - rj * rj) / (2 * r * d), -1.0, 1.0));
+      double lo = alpha - beta, hi = alpha + beta;
+      lo -= kTwoPi * std::floor(lo / kTwoPi);
+      hi = lo + 2 * beta;
+      if (hi > kTwoPi) {
+        covered.emplace_back(lo, kTwoPi);
+        covered.emplace_back(0.0, hi - kTwoPi);
+      } else {
+        covered.emplace_back(lo, hi);
+      }
+    }
+    if (hidden) continue;
+    merge_intervals(covered);
+    // Exposed arcs: Green's theorem, area = 1/2 closed integral of (x dy - y dx),
+    // integral of x dA = closed integral of x^2/2 dy, integral of y dA = -closed integral of y^2/2 dx.
+    auto arc = [&](double t0, double t1) {
+      const double s0 = std::sin(t0), s1 = std::sin(t1), c0 = std::cos(t0), c1 = std::cos(t1);
+      u.area += 0.5 * (r * cx * (s1 - s0) - r * cy * (c1 - c0) + r * r * (t1 - t0));
+      const double icos = s1 - s0;
+      const double icos2 = 0.5 * (t1 - t0) + 0.25 * (std::sin(2 * t1) - std::sin(2 * t0));
+      const double icos3 = (s1 - s1 * s1 * s1 / 3) - (s0 - s0 * s0 * s0 / 3);
+      u.moment_x += 0.5 * r * (cx * cx * icos + 2 * cx * r * icos2 + r * r * icos3);
+      const double isin = -(c1 - c0);
+      const double isin2 = 0.5 * (t1 - t0) - 0.25 * (std::sin(2 * t1) - std::sin(2 * t0));
+      const double isin3 = (-c1 + c1 * c1 * c1 / 3) - (-c0 + c0 * c0 * c0 / 3);
+      u.moment_y += 0.5 * r * (cy * cy * isin + 2 * cy * r * isin2 + r * r * isin3);
+    };
+    double t = 0;
+    for (const auto& [lo, hi] : covered) {
+      if (lo > t) arc(t, lo);
+      t = std::max(t, hi);
+    }
+    if (t < kTwoPi) arc(t, kTwoPi);
+  }
+  return u;
+}
+
+Shape Shape::sphere() {
+  Shape s;
+  s.kind_ = Kind::sphere;
+  s.props_.volume = 4.0 / 3.0 * kPi;
+  s.props_.second_moment = Eigen::Matrix3d::Identity() * (s.props_.volume / 5.0);
+  s.bounds_ = Eigen::AlignedBox3d(Eigen::Vector3d(-1, -1, -1), Eigen::Vector3d(1, 1, 1));
+  return s;
+}
+
+Shape Shape::ellipsoid(double a, double b, double c) {
+  if (!(a > 0 && b > 0 && c > 0) || !std::isfinite(a * b * c))
+    throw std::invalid_argument("ellipsoid semi-axes must be finite and > 0");
+  Shape s;
+  s.kind_ = Kind::ellipsoid;
+  s.axes_ = Eigen::Vector3d(a, b, c);
+  s.props_.volume = 4.0 / 3.0 * kPi * a * b * c;
+  s.props_.second_moment = (s.axes_.cwiseProduct(s.axes_) * (s.props_.volume / 5.0)).asDiagonal();
+  s.bounds_ = Eigen::AlignedBox3d(-s.axes_, s.axes_);
+  return s;
+}
+
+Shape Shape::superquadric(double a, double b, double c, double e1, double e2) {
+  if (!(a > 0 && b > 0 && c > 0) || !std::isfinite(a * b * c))
+    throw std::invalid_argument("superquadric semi-axes must be finite and > 0");
+  if (!(e1 >= 0.1 && e1 <= 2 && e2 >= 0.1 && e2 <= 2))
+    throw std::invalid_argument("superquadric exponents e1, e2 must lie in [0.1, 2]");
+  Shape s;
+  s.kind_ = Kind::superquadric;
+  s.axes_ = Eigen::Vector3d(a, b, c);
+  s.e1_ = e1;
+  s.e2_ = e2;
+  // Jaklic et al. (2000): V = 2 a b c e1 e2 B(e1/2 + 1, e1) B(e2/2, e2/2).
+  s.props_.volume = 2 * a * b * c * e1 * e2 * beta(e1 / 2 + 1, e1) * beta(e2 / 2, e2 / 2);
+  s.bounds_ = Eigen::AlignedBox3d(-s.axes_, s.axes_);
+  s.props_.second_moment = sampled_second_moment(sample_shape(s, 400000), Eigen::Vector3d::Zero(), s.props_.volume);
+  return s;
+}
+
+Shape Shape::clump(std::vector<Eigen::Vector4d> spheres) {
+  if (spheres.empty()) throw std::invalid_argument("a clump needs at least one sphere");
+  Shape s;
+  s.kind_ = Kind::clump;
+  for (const auto& q : spheres) {
+    if (!q.allFinite() || !(q[3] > 0)) throw std::invalid_argument("clump spheres need finite x y z and r > 0");
+    s.bounds_.extend(Eigen::Vector3d(q[0] - q[3], q[1] - q[3], q[2] - q[3]));
+    s.bounds_.extend(Eigen::Vector3d(q[0] + q[3], q[1] + q[3], q[2] + q[3]));
+  }
+  s.spheres_ = std::move(spheres);
+  // Exact slice areas and moments (union of disks) integrated over z between the
+  // spheres' poles and centres, where the slice topology changes.
+  std::vector<double> breaks;
+  for (const auto& q : s.spheres_) breaks.insert(breaks.end(), {q[2] - q[3], q[2], q[2] + q[3]});
+  std::sort(breaks.begin(), breaks.end());
+  breaks.erase(std::unique(breaks.begin(), breaks.end()), breaks.end());
+  std::vector<Eigen::Vector3d> disks;
+  auto slice = [&](double z) {
+    disks.clear();
+    for (const auto& q : s.spheres_) {
+      const double h2 = q[3] * q[3] - (z - q[2]) * (z - q[2]);
+      if (h2 > 0) disks.emplace_back(q[0], q[1], std::sqrt(h2));
+    }
+    const DiskUnion u = disk_union(disks);
+    return Vec4(u.area, u.moment_x, u.moment_y, z * u.area);
+  };
+  double scale = 0;
+  for (const auto& q : s.spheres_) scale = std::max(scale, q[3]);
+  const double tol = 1e-13 * scale * scale * scale;
+  Vec4 total = Vec4::Zero();
+  for (std::size_t i = 0; i + 1 < breaks.size(); ++i) total += integrate(slice, breaks[i], breaks[i + 1], tol);
+  s.props_.volume = total[0];
+  s.props_.centroid = Eigen::Vector3d(total[1], total[2], total[3]) / total[0];
+  s.props_.second_moment = sampled_second_moment(sample_shape(s, 400000), s.props_.centroid, s.props_.volume);
+  return s;
+}
+
+Shape Shape::mesh(TriangleMesh mesh) {
+  if (const std::string problem = check_closed_mesh(mesh); !problem.empty()) throw std::invalid_argument(problem);
+  Shape s;
+  s.kind_ = Kind::mesh;
+  for (const auto& v : mesh.vertices) s.bounds_.extend(v);
+  s.props_ = mesh_mass_properties(mesh);
+  s.mesh_ = std::move(mesh);
+  return s;
+}
+
+std::string Shape::description() const {
+  std::ostringstream o;
+  switch (kind_) {
+    case Kind::sphere: o << "sphere"; break;
+    case Kind::ellipsoid: o << "ellipsoid " << axes_.transpose(); break;
+    case Kind::superquadric: o << "superquadric " << axes_.transpose() << " " << e1_ << " " << e2_; break;
+    case Kind::clump: o << "clump of " << spheres_.size() << " spheres"; break;
+    case Kind::mesh: o << "mesh of " << mesh_.triangles.size() << " triangles"; break;
+  }
+  return o.str();
+}
+
+void Shape::column(double x, double y, std::vector<std::pair<double, double>>& out) const {
+  out.clear();
+  switch (kind_) {
+    case Kind::sphere:
+    case Kind::ellipsoid: {
+      const double g = (x / axes_[0]) * (x / axes_[0]) + (y / axes_[1]) * (y / axes_[1]);
+      if (g < 1) {
+        const double h = axes_[2] * std::sqrt(1 - g);
+        out.emplace_back(-h, h);
+      }
+      break;
+    }
+    case Kind::superquadric: {
+      const double g = std::pow(std::pow(std::abs(x / axes_[0]), 2 / e2_) + std::pow(std::abs(y / axes_[1]), 2 / e2_),
+                                e2_ / e1_);
+      if (g < 1) {
+        const double h = axes_[2] * std::pow(1 - g, e1_ / 2);
+        out.emplace_back(-h, h);
+      }
+      break;
+    }
+    case Kind::clump: {
+      for (const auto& q : spheres_) {
+        const double h2 = q[3] * q[3] - (x - q[0]) * (x - q[0]) - (y - q[1]) * (y - q[1]);
+        if (h2 > 0) out.emplace_back(q[2] - std::sqrt(h2), q[2] + std::sqrt(h2));
+      }
+      merge_intervals(out);
+      break;
+    }
+    case Kind::mesh: {
+      // Crossings of the vertical line with the triangles, paired in order (a closed
+      // surface is crossed an even number of times).
+      std::vector<double> z;
+      for (const auto& t : mesh_.triangles) {
+        const Eigen::Vector3d &a = mesh_.vertices[t[0]], &b = mesh_.vertices[t[1]], &c = mesh_.vertices[t[2]];
+        const double w0 = (b[0] - x) * (c[1] - y) - (c[0] - x) * (b[1] - y);
+        const double w1 = (c[0] - x) * (a[1] - y) - (a[0] - x) * (c[1] - y);
+        const double w2 = (a[0] - x) * (b[1] - y) - (b[0] - x) * (a[1] - y);
+        const double sum = w0 + w1 + w2;
+        if (sum == 0) continue;  // vertical triangle
+        // Half-open rule so a line through a shared edge counts once.
+        const bool pos = (w0 > 0 || (w0 == 0 && sum > 0)) && (w1 > 0 || (w1 == 0 && sum > 0)) &&
+                         (w2 > 0 || (w2 == 0 && sum > 0));
+        const bool neg = (w0 < 0 || (w0 == 0 && sum < 0)) && (w1 < 0 || (w1 == 0 && sum < 0)) &&
+                         (w2 < 0 || (w2 == 0 && sum < 0));
+        if (!pos && !neg) continue;
+        z.push_back((w0 * a[2] + w1 * b[2] + w2 * c[2]) / sum);
+      }
+      std::sort(z.begin(), z.end());
+      for (std::size_t i = 0; i + 1 < z.size(); i += 2) out.emplace_back(z[i], z[i + 1]);
+      break;
+    }
+  }
+}
+
+bool Shape::contains(const Eigen::Vector3d& p) const {
+  std::vector<std::pair<double, double>> col;
+  column(p[0], p[1], col);
+  for (const auto& [lo, hi] : col)
+    if (p[2] >= lo && p[2] <= hi) return true;
+  return false;
+}
+
+SampledBody sample_shape(const Shape& shape, std::size_t target) {
+  SampledBody s;
+  const Eigen::Vector3d lo = shape.bounds().min(), ext = shape.bounds().sizes();
+  const double h = std::cbrt(shape.volume() / double(std::max<std::size_t>(target, 1)));
+  const int nx = std::max(1, int(std::ceil(ext[0] / h))), ny = std::max(1, int(std::ceil(ext[1] / h)));
+  const double hx = ext[0] / nx, hy = ext[1] / ny;
+  s.cell_volume = hx * hy * h;
+  s.points.reserve(target + target / 4);
+  std::vector<std::pair<double, double>> col;
+  for (int j = 0; j < ny; ++j) {
+    const double y = lo[1] + (j + 0.5) * hy;
+    for (int i = 0; i < nx; ++i) {
+      const double x = lo[0] + (i + 0.5) * hx;
+      shape.column(x, y, col);
+      for (const auto& [zlo, zhi] : col) {
+        // Midpoints of the z-grid anchored at the bounding box lie inside [zlo, zhi].
+        const long k0 = long(std::ceil((zlo - lo[2]) / h - 0.5)), k1 = long(std::floor((zhi - lo[2]) / h - 0.5));
+        for (long k = k0; k <= k1; ++k) s.points.emplace_back(x, y, lo[2] + (k + 0.5) * h);
+      }
+    }
+  }
+  return s;
+}
+
+namespace {
+
+/// Cuts points[b, e) into n parts of (nearly) equal count by recursive bisection along
+/// the widest axis; appends each part's centroid and share.
+void bisect(std::vector<Eigen::Vector3d>& pts, std::size_t b, std::size_t e, int n, double total,
+            ParticleTemplate& t) {
+  if (n <= 1 || e - b <= 1) {
+    Eigen::Vector3d c = Eigen::Vector3d::Zero();
+    for (std::size_t i = b; i < e; ++i) c += pts[i];
+    t.points.push_back(c / double(e - b));
+    t.fractions.push_back(double(e - b) / total);
+    return;
+  }
+  Eigen::AlignedBox3d box;
+  for (std::size_t i = b; i < e; ++i) box.extend(pts[i]);
+  int axis = 0;
+  box.sizes().maxCoeff(&axis);
+  const int n1 = n / 2;
+  const std::size_t mid = b + static_cast<std::size_t>(std::llround(double(e - b) * n1 / n));
+  std::nth_element(pts.begin() + b, pts.begin() + mid, pts.begin() + e,
+                   [axis](const Eigen::Vector3d& p, const Eigen::Vector3d& q) { return p[axis] < q[axis]; });
+  bisect(pts, b, mid, n1, total, t);
+  bisect(pts, mid, e, n - n1, total, t);
+}
+
+}  // namespace
+
+ParticleTemplate make_shape_template(const Shape& shape, int n) {
+  n = std::max(n, 1);
+  if (shape.kind() == Shape::Kind::sphere) return make_spherical_template(n);
+  if (shape.kind() == Shape::Kind::ellipsoid) {
+    ParticleTemplate t = make_spherical_template(n);
+    t.reach = 0;
+    for (auto& p : t.points) {
+      p = p.cwiseProduct(shape.axes());  // an affine map keeps equal volumes and maps centroids to centroids
+      t.reach = std::max(t.reach, p.norm());
+    }
+    t.family = "ellipsoid";
+    return t;
+  }
+  // At least ~400 samples per sub-element, and never fewer than 200k in all.
+  SampledBody s = sample_shape(shape, std::max<std::size_t>(200000, std::size_t(400) * std::size_t(n)));
+  ParticleTemplate t;
+  t.family = "shape";
+  if (s.points.empty()) {
+    t.points.push_back(shape.centroid());
+    t.fractions.push_back(1.0);
+  } else {
+    const int parts = std::min<int>(n, static_cast<int>(s.points.size()));
+    bisect(s.points, 0, s.points.size(), parts, double(s.points.size()), t);
+  }
+  // Move the template's centre of volume onto the exact centroid.
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (std::size_t i = 0; i < t.size(); ++i) mean += t.fractions[i] * t.points[i];
+  const Eigen::Vector3d shift = shape.centroid() - mean;
+  t.reach = 0;
+  for (auto& p : t.points) {
+    p += shift;
+    t.reach = std::max(t.reach, p.norm());
+  }
+  return t;
+}
+
+}  // namespace vfe::kernels
