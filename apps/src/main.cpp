@@ -1,9 +1,13 @@
 // vfe: command-line tool of the vfe library.
 //   vfe run CONFIG.yaml [--output DIR] [--threads N] [--repeats N] [--quiet] [--vtk]
+//   vfe stability [--chi LIST] [--grid LIST] [--method M] [--template LIST] [--orientation LIST]
+//                 [--step S] [--trajectories N] [--seed N] [--cells C] [--sweep]
+//                 [--superficial-velocity U --fluid-dt DT [--diameter D]] [--output DIR]
 //   vfe --version
 
 #include "config.hpp"
 #include "run.hpp"
+#include "stability_cmd.hpp"
 
 #include <vfe/vfe.h>
 
@@ -37,6 +41,49 @@ int main(int argc, char** argv) {
   run->add_flag("-q,--quiet", quiet, "Print only the tables, warnings and errors");
   run->add_flag("--vtk", vtk, "Also write the fields of every method as <mesh>.vti (ParaView)");
 
+  vfe::apps::StabilityCommand stab;
+  std::string stab_step = "1/200";
+  bool stab_quiet = false;
+  CLI::App* stability = app.add_subcommand(
+      "stability", "Stability stress test (DESIGN section 5): spheres moving across cells in small steps");
+  stability->add_option("--chi", stab.chi, "Cell size / particle diameter, a list (e.g. 0.5,1,2)")
+      ->delimiter(',')
+      ->capture_default_str();
+  stability->add_option("--grid", stab.grids, "Particle grids, a list of integers or auto (default auto; "
+                                              "with --sweep: a ladder from 1 to 20000)")
+      ->delimiter(',');
+  stability->add_option("--method", stab.method, "Engine method (pmm, direct, exact, ...)")->capture_default_str();
+  stability->add_option("--template", stab.templates, "Template families, a list (default: the engine's)")
+      ->delimiter(',');
+  stability->add_option("--orientation", stab.orientations, "Template orientations, a list (random, none)")
+      ->delimiter(',');
+  stability->add_option("--options", stab.options, "More engine options, \"key=value ...\"");
+  stability->add_option("--step", stab_step, "Step as a fraction of the diameter (e.g. 1/200 or 0.005)")
+      ->capture_default_str();
+  stability->add_option("--trajectories", stab.trajectories, "Trajectories per run")
+      ->check(CLI::Range(1, 1000000))
+      ->capture_default_str();
+  stability->add_option("--seed", stab.seed, "Seed of the trajectories and their template orientations")
+      ->capture_default_str();
+  stability->add_option("--cells", stab.cells, "Distance travelled, in cells")
+      ->check(CLI::Range(1e-6, 1000.0))
+      ->capture_default_str();
+  stability->add_option("--criterion", stab.jump_criterion, "deps_crit for J (default pi/162)")
+      ->check(CLI::PositiveNumber);
+  stability->add_option("--superficial-velocity", stab.superficial_velocity,
+                        "U_s for the flux form psi = |deps| dx / (U_s dt_f)")
+      ->check(CLI::PositiveNumber);
+  stability->add_option("--fluid-dt", stab.fluid_dt, "Fluid time step dt_f for the flux form")
+      ->check(CLI::PositiveNumber);
+  stability->add_option("--diameter", stab.diameter,
+                        "Particle diameter in the length unit of U_s dt_f (dx = chi * diameter)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  stability->add_flag("--sweep", stab.sweep, "Sweep the particle grids at every chi and find n_min(chi)");
+  stability->add_option("-t,--threads", stab.threads, "Threads, 0 = all")->check(CLI::Range(0, 4096));
+  stability->add_option("-o,--output", stab.output, "Output folder")->capture_default_str();
+  stability->add_flag("-q,--quiet", stab_quiet, "Print only the tables, warnings and errors");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -55,6 +102,36 @@ int main(int argc, char** argv) {
       opt.logger = vfe::apps::make_app_logger(quiet);
       opt.table = &std::cout;
       vfe::apps::run_scene(cfg, opt);
+    } else if (stability->parsed()) {
+      // --step takes a fraction (1/200) or a number.
+      const auto slash = stab_step.find('/');
+      std::size_t used = 0;
+      double step = 0;
+      try {
+        if (slash == std::string::npos) {
+          step = std::stod(stab_step, &used);
+          if (used != stab_step.size()) step = 0;
+        } else {
+          const double a = std::stod(stab_step.substr(0, slash), &used);
+          const double b = used == slash ? std::stod(stab_step.substr(slash + 1), &used) : 0;
+          step = b > 0 && used == stab_step.size() - slash - 1 ? a / b : 0;
+        }
+      } catch (const std::exception&) {
+        step = 0;
+      }
+      if (!(step > 0) || step > 1) {
+        std::cerr << "vfe: error: --step: bad value '" << stab_step
+                  << "'; expected a fraction of the diameter in (0, 1], e.g. 1/200 or 0.005\n";
+        return 2;
+      }
+      if ((stab.superficial_velocity > 0) != (stab.fluid_dt > 0)) {
+        std::cerr << "vfe: error: the flux form needs both --superficial-velocity and --fluid-dt\n";
+        return 2;
+      }
+      stab.step = step;
+      stab.logger = vfe::apps::make_app_logger(stab_quiet);
+      stab.table = &std::cout;
+      vfe::apps::run_stability(stab);
     }
   } catch (const std::exception& e) {
     std::cout.flush();
