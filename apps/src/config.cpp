@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -111,7 +112,7 @@ MethodSpec method_entry(const Ctx& ctx, const YAML::Node& n, const std::string& 
   if (n.IsScalar()) {
     m.method = n.as<std::string>();
   } else if (n.IsMap()) {
-    check_keys(ctx, n, {"method", "options", "label"}, where);
+    check_keys(ctx, n, {"method", "options", "label", "settings"}, where);
     if (!n["method"]) ctx.fail(n, where + " has no 'method' key; write e.g. {method: pmm, options: \"particle_grid=27\"}");
     m.method = scalar(ctx, n["method"], where + ": method");
     if (n["options"]) {
@@ -121,13 +122,31 @@ MethodSpec method_entry(const Ctx& ctx, const YAML::Node& n, const std::string& 
         m.options = scalar(ctx, n["options"], where + ": options");
     }
     if (n["label"]) m.label = scalar(ctx, n["label"], where + ": label");
+    if (const YAML::Node st = n["settings"]) {
+      if (!st.IsSequence() || st.size() == 0)
+        ctx.fail(st, where + ": settings must be a list of option strings, e.g. [\"particle_grid=20\", "
+                             "\"particle_grid=80\"]");
+      for (std::size_t i = 0; i < st.size(); ++i) {
+        const std::string setting = scalar(ctx, st[i], where + ": settings");
+        if (setting.find("method=") != std::string::npos)
+          ctx.fail(st[i], where + ": a setting must not set method= (use the 'method' key)");
+        try {
+          if (merge_options({setting}).empty()) ctx.fail(st[i], where + ": a setting is empty");
+        } catch (const ConfigError& e) {
+          ctx.fail(st[i], where + ": settings: " + e.what());
+        }
+        if (std::find(m.settings.begin(), m.settings.end(), setting) != m.settings.end())
+          ctx.fail(st[i], where + ": setting '" + setting + "' is listed twice");
+        m.settings.push_back(setting);
+      }
+    }
   } else {
     ctx.fail(n, where + " must be a method name (e.g. pmm) or a map {method: NAME, options: \"k=v ...\", "
                         "label: NAME}");
   }
   if (!is_identifier_like(m.method))
     ctx.fail(n, where + ": '" + m.method + "' is not a method name; use one of direct, pmm, exact, "
-                        "divided, gaussian, porous_cube, big_particle");
+                        "divided, gaussian, porous_cube, big_particle, trilinear");
   if (m.options.find("method=") != std::string::npos)
     ctx.fail(n, where + ": options must not set method= (use the 'method' key)");
   if (m.label.empty()) m.label = default_label(m.method, m.options);
@@ -200,7 +219,8 @@ SceneConfig parse_root(const Ctx& ctx, const YAML::Node& root, const fs::path& b
   if (!root.IsDefined() || root.IsNull()) ctx.fail("the config is empty; see configs/bed_mono.yaml for an example");
   if (!root.IsMap()) ctx.fail(root, "the config must be a map of keys (name, particles, meshes, methods, ...)");
   check_keys(ctx, root,
-             {"name", "particles", "meshes", "methods", "reference", "threads", "repeats", "options", "output", "vtk"},
+             {"name", "particles", "meshes", "chi", "methods", "reference", "threads", "repeats", "options", "output",
+              "vtk"},
              "the config");
   SceneConfig c;
   c.source = ctx.source;
@@ -234,17 +254,38 @@ SceneConfig parse_root(const Ctx& ctx, const YAML::Node& root, const fs::path& b
   if (file.empty()) ctx.fail(p, "particles: file is empty");
   c.particles_file = fs::path(file).is_absolute() ? fs::path(file) : (base_dir / file).lexically_normal();
 
+  // chi: grids over the particles' box
+  if (const YAML::Node chi = root["chi"]) {
+    std::vector<YAML::Node> values;
+    if (chi.IsScalar())
+      values.push_back(chi);
+    else if (chi.IsSequence() && chi.size() > 0)
+      for (std::size_t i = 0; i < chi.size(); ++i) values.push_back(chi[i]);
+    else
+      ctx.fail(chi, "chi must be a number or a list of numbers, e.g. chi: [0.75, 1, 2, 3]");
+    for (const auto& v : values) {
+      const double x = number(ctx, v, "chi");
+      if (!(x > 0)) ctx.fail(v, "chi must be > 0 (cell size / mean particle diameter)");
+      if (std::find(c.chi.begin(), c.chi.end(), x) != c.chi.end()) ctx.fail(v, "chi value listed twice");
+      c.chi.push_back(x);
+    }
+  }
+
   // meshes
   const YAML::Node meshes = root["meshes"];
-  if (!meshes || meshes.IsNull() || (meshes.IsSequence() && meshes.size() == 0))
+  const bool no_meshes = !meshes || meshes.IsNull() || (meshes.IsSequence() && meshes.size() == 0);
+  if (no_meshes && c.chi.empty())
     ctx.fail(meshes ? meshes : root, "no mesh: add a 'meshes:' list with at least one mesh, e.g. "
-                                     "{name: grid, type: cartesian, bounds: particles_box, spacing: 0.002}");
-  if (!meshes.IsSequence()) ctx.fail(meshes, "'meshes' must be a list of meshes");
+                                     "{name: grid, type: cartesian, bounds: particles_box, spacing: 0.002}, "
+                                     "or a 'chi:' list");
+  if (!no_meshes && !meshes.IsSequence()) ctx.fail(meshes, "'meshes' must be a list of meshes");
   std::set<std::string> mesh_names;
-  for (std::size_t i = 0; i < meshes.size(); ++i) {
+  for (double x : c.chi) mesh_names.insert(chi_mesh_name(x));
+  for (std::size_t i = 0; !no_meshes && i < meshes.size(); ++i) {
     MeshSpec m = mesh_entry(ctx, meshes[i], i);
     if (!mesh_names.insert(m.name).second)
-      ctx.fail(meshes[i], "two meshes are named '" + m.name + "'; give each mesh its own name");
+      ctx.fail(meshes[i], "two meshes are named '" + m.name + "' (chi: [...] makes meshes chi_<value>); "
+                          "give each mesh its own name");
     c.meshes.push_back(std::move(m));
   }
 
@@ -394,6 +435,42 @@ vfe::CartesianGridSpec resolve_grid(const MeshSpec& m, const std::array<double, 
   }
   if (note) *note = notes;
   return g;
+}
+
+std::string chi_mesh_name(double chi) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "chi_%g", chi);
+  return buf;
+}
+
+MeshSpec chi_mesh(double chi, double mean_diameter) {
+  MeshSpec m;
+  m.name = chi_mesh_name(chi);
+  m.bounds_particles_box = true;
+  const double h = chi * mean_diameter;
+  m.spacing = std::array<double, 3>{h, h, h};
+  return m;
+}
+
+std::vector<MethodSpec> expand_settings(const std::vector<MethodSpec>& methods) {
+  std::vector<MethodSpec> out;
+  for (const MethodSpec& m : methods) {
+    if (m.settings.empty()) {
+      out.push_back(m);
+      continue;
+    }
+    for (const std::string& setting : m.settings) {
+      MethodSpec e = m;
+      e.settings.clear();
+      e.options = merge_options({m.options, setting});
+      std::string tag = merge_options({setting});
+      std::replace(tag.begin(), tag.end(), '=', '-');
+      std::replace(tag.begin(), tag.end(), ' ', '_');
+      e.label = m.label + "_" + tag;
+      out.push_back(std::move(e));
+    }
+  }
+  return out;
 }
 
 std::string merge_options(const std::vector<std::string>& parts) {

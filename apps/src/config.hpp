@@ -33,10 +33,14 @@ struct MeshSpec {
 };
 
 /// One method to run: engine method name, its own options, and a label for reports.
+/// settings: option strings swept on top of options (particle grids, sigma, gamma): `vfe
+/// study` runs each as one point of the method's family; `vfe run` runs each as a method of
+/// its own (see expand_settings). Empty = the options alone.
 struct MethodSpec {
   std::string method;
   std::string options;
   std::string label;
+  std::vector<std::string> settings;
 };
 
 struct SceneConfig {
@@ -45,8 +49,11 @@ struct SceneConfig {
   std::filesystem::path particles_file;  ///< resolved against the config's folder
   std::int64_t frame = -1;               ///< 0-based, negative from the end (-1 = last)
   std::vector<MeshSpec> meshes;
+  /// Cartesian grids over the particles' box with cubic cells of spacing chi * mean particle
+  /// diameter, one per value (named chi_<value>), after the listed meshes.
+  std::vector<double> chi;
   std::vector<MethodSpec> methods;
-  MethodSpec reference{"exact", "", "exact"};
+  MethodSpec reference{"exact", "", "exact", {}};
   int threads = 0;
   int repeats = 5;
   std::string options;                   ///< applied to every method (before its own)
@@ -66,6 +73,17 @@ SceneConfig parse_config(const std::string& text, const std::filesystem::path& b
 /// rounds the cell count up and *note says so. Throws ConfigError.
 vfe::CartesianGridSpec resolve_grid(const MeshSpec& mesh, const std::array<double, 6>* particles_box,
                                     const std::string& source, std::string* note = nullptr);
+
+/// The mesh of one chi value: bounds particles_box, spacing chi * mean_diameter (kept
+/// exactly: the grid extends past the box when the spacing does not divide it).
+MeshSpec chi_mesh(double chi, double mean_diameter);
+
+/// Name of the mesh of one chi value: "chi_" followed by the value (e.g. chi_0.75).
+std::string chi_mesh_name(double chi);
+
+/// One method per setting: label "<label>_<setting>" ('=' as '-', blanks as '_'), options
+/// "<options> <setting>". Methods without settings are kept as they are.
+std::vector<MethodSpec> expand_settings(const std::vector<MethodSpec>& methods);
 
 /// Merges option strings "key=value ..." left to right (a later key replaces an earlier
 /// one, keeping the first position). Throws ConfigError on a token without '='.

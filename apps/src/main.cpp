@@ -3,11 +3,13 @@
 //   vfe stability [--chi LIST] [--grid LIST] [--method M] [--template LIST] [--orientation LIST]
 //                 [--step S] [--trajectories N] [--seed N] [--cells C] [--sweep]
 //                 [--superficial-velocity U --fluid-dt DT [--diameter D]] [--output DIR]
+//   vfe study CONFIG.yaml [--output DIR] [--threads N] [--repeats N] [--chi LIST] [--base FAMILY] [--quiet]
 //   vfe --version
 
 #include "config.hpp"
 #include "run.hpp"
 #include "stability_cmd.hpp"
+#include "study_cmd.hpp"
 
 #include <vfe/vfe.h>
 
@@ -84,6 +86,28 @@ int main(int argc, char** argv) {
   stability->add_option("-o,--output", stab.output, "Output folder")->capture_default_str();
   stability->add_flag("-q,--quiet", stab_quiet, "Print only the tables, warnings and errors");
 
+  std::string study_config;
+  std::string study_output;
+  int study_threads = -1;
+  int study_repeats = -1;
+  std::vector<double> study_chi;
+  std::string study_base = "pmm";
+  bool study_quiet = false;
+  CLI::App* study = app.add_subcommand(
+      "study", "Run time against error of every method and setting of a scene at several chi (study.csv, "
+               "comparisons.csv, study.json; plot with scripts/plot_study.py)");
+  study->add_option("config", study_config, "Study config (YAML), e.g. configs/study_bed.yaml")->required();
+  study->add_option("-o,--output", study_output, "Output folder (replaces the config's 'output')");
+  study->add_option("-t,--threads", study_threads, "Threads, 0 = all (replaces the config's 'threads')")
+      ->check(CLI::Range(0, 4096));
+  study->add_option("-r,--repeats", study_repeats, "Timed computes per point (replaces the config's 'repeats')")
+      ->check(CLI::Range(1, 1000000));
+  study->add_option("--chi", study_chi, "Cell size / mean diameter, a list (replaces the config's 'chi')")
+      ->delimiter(',')
+      ->check(CLI::PositiveNumber);
+  study->add_option("--base", study_base, "Family compared with every other point")->capture_default_str();
+  study->add_flag("-q,--quiet", study_quiet, "Print only the tables, warnings and errors");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -102,6 +126,17 @@ int main(int argc, char** argv) {
       opt.logger = vfe::apps::make_app_logger(quiet);
       opt.table = &std::cout;
       vfe::apps::run_scene(cfg, opt);
+    } else if (study->parsed()) {
+      const vfe::apps::SceneConfig cfg = vfe::apps::load_config(study_config);
+      vfe::apps::StudyOptions opt;
+      if (!study_output.empty()) opt.output = study_output;
+      if (study_threads >= 0) opt.threads = study_threads;
+      if (study_repeats >= 1) opt.repeats = study_repeats;
+      if (!study_chi.empty()) opt.chi = study_chi;
+      opt.base = study_base;
+      opt.logger = vfe::apps::make_app_logger(study_quiet);
+      opt.table = &std::cout;
+      vfe::apps::run_study(cfg, opt);
     } else if (stability->parsed()) {
       // --step takes a fraction (1/200) or a number.
       const auto slash = stab_step.find('/');

@@ -92,8 +92,8 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
     throw ConfigError(source + ": options: " + e.what());
   }
 
-  // The methods to time, and the reference (timed too when it is one of them).
-  std::vector<MethodSpec> methods = cfg.methods;
+  // The methods to time (one per setting), and the reference (timed too when it is one of them).
+  std::vector<MethodSpec> methods = expand_settings(cfg.methods);
   const MethodSpec reference = cfg.reference;
   const bool reference_listed = std::any_of(methods.begin(), methods.end(), [&](const MethodSpec& m) {
     return m.label == reference.label && m.method == reference.method && m.options == reference.options;
@@ -156,10 +156,23 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
   RunResult result;
   result.output = out_dir;
 
-  for (const auto& mesh : cfg.meshes) {
+  std::vector<MeshSpec> meshes = cfg.meshes;
+  if (!cfg.chi.empty() && !(mean_d > 0))
+    throw ConfigError(source + ": chi: [...] needs particles to size the cells (the frame has none); list meshes "
+                               "instead");
+  for (double chi : cfg.chi) meshes.push_back(chi_mesh(chi, mean_d));
+
+  for (std::size_t mesh_index = 0; mesh_index < meshes.size(); ++mesh_index) {
+    const MeshSpec& mesh = meshes[mesh_index];
     std::string note;
     const vfe::CartesianGridSpec grid = resolve_grid(mesh, &frame.box, source, &note);
-    if (!note.empty()) log->warn("mesh '{}': {}", mesh.name, note);
+    // A chi mesh keeps its spacing exactly, so extending past the box is expected there.
+    if (!note.empty()) {
+      if (mesh_index < cfg.meshes.size())
+        log->warn("mesh '{}': {}", mesh.name, note);
+      else
+        log->info("mesh '{}': {}", mesh.name, note);
+    }
     const std::string mesh_where = "mesh '" + mesh.name + "'";
     std::unique_ptr<vfe::Engine> engine;
     with_context(mesh_where, [&] { engine = std::make_unique<vfe::Engine>(grid); });

@@ -1,10 +1,13 @@
+// The engine facade: validation, the per-method drivers (methods/), scheduling over particle
+// blocks in the engine's own TBB arena, and accumulation into the field.
 #include <vfe/engine.hpp>
 
 #include "cartesian_grid.hpp"
+#include "methods/driver.hpp"
 #include "options.hpp"
 
+#include <vfe/kernels/divided.hpp>
 #include <vfe/kernels/particle_template.hpp>
-#include <vfe/kernels/sphere_box_overlap.hpp>
 
 #include <spdlog/sinks/stdout_sinks.h>
 #include <spdlog/spdlog.h>
@@ -28,43 +31,13 @@ namespace vfe {
 
 namespace {
 
+using detail::Deposit;
+using detail::Scratch;
 using kernels::ParticleTemplate;
 
-struct Deposit {
-  std::int64_t cell;
-  double volume;
-};
-
-/// Largest particle grid `auto` may choose (a particle 8x larger than its cell).
-constexpr std::int64_t kMaxAutoGrid = 5 * 27 * 512;
 /// Particles per block of the deterministic (sorted) accumulation: fixed, so the
 /// summation order never depends on the thread count.
 constexpr std::int64_t kSortedBlock = 512;
-
-/// Per-thread working memory, allocated once and reused by every particle.
-struct Scratch {
-  std::vector<Deposit> deposits;  // one particle's deposits, merged by cell
-  std::vector<double> nodes[3], orthant, patch;  // exact method
-  std::vector<double> window;                    // pmm: volume per cell of the particle's window
-  std::int64_t fast_path = 0, sub_elements = 0, outside_particles = 0;
-  std::int64_t first_error = std::numeric_limits<std::int64_t>::max();
-  std::int64_t grid_min = std::numeric_limits<std::int64_t>::max(), grid_max = 0;
-
-  void reset_counters() {
-    fast_path = sub_elements = outside_particles = grid_max = 0;
-    first_error = grid_min = std::numeric_limits<std::int64_t>::max();
-  }
-
-  void add(std::int64_t cell, double v) {
-    // A particle touches a handful of cells: a backward linear search is the cheapest merge.
-    for (auto it = deposits.rbegin(); it != deposits.rend(); ++it)
-      if (it->cell == cell) {
-        it->volume += v;
-        return;
-      }
-    deposits.push_back({cell, v});
-  }
-};
 
 double sphere_volume(double r) { return 4.0 / 3.0 * std::numbers::pi * r * r * r; }
 
@@ -94,6 +67,7 @@ struct Engine::Impl {
   std::vector<double> sort_values;
 
   std::map<std::pair<int, std::int64_t>, std::unique_ptr<ParticleTemplate>> template_cache;
+  const ParticleTemplate divided = kernels::make_divided_template();
   std::vector<const ParticleTemplate*> bank;  // by (auto step - bank_first)
   std::int64_t bank_first = 0;
 
@@ -112,12 +86,8 @@ struct Engine::Impl {
 
   // --- particle grid ------------------------------------------------------------------
 
-  /// auto: 5 * ceil(27 / chi^3) (DESIGN section 5's default criterion), in steps of 5.
-  std::int64_t auto_steps(double diameter) const { return auto_steps(diameter, grid.cell_volume()); }
   static std::int64_t auto_steps(double diameter, double cell_volume) {
-    const double x = 27.0 * diameter * diameter * diameter / cell_volume;
-    const double k = std::ceil(x * (1.0 - 1e-12));
-    return std::clamp<std::int64_t>(static_cast<std::int64_t>(std::min(k, 1e9)), 1, kMaxAutoGrid / 5);
+    return detail::auto_steps(diameter, cell_volume);
   }
 
   const ParticleTemplate& get_template(std::int64_t n) {
@@ -125,9 +95,13 @@ struct Engine::Impl {
     auto& slot = template_cache[{family, n}];
     if (!slot) {
       const int ni = static_cast<int>(n);
-      slot = std::make_unique<ParticleTemplate>(opts.template_family == TemplateFamily::spherical
-                                                    ? kernels::make_spherical_template(ni)
-                                                    : kernels::make_fibonacci_template(ni));
+      ParticleTemplate t;
+      switch (opts.template_family) {
+        case TemplateFamily::spherical: t = kernels::make_spherical_template(ni); break;
+        case TemplateFamily::fibonacci: t = kernels::make_fibonacci_template(ni); break;
+        case TemplateFamily::voxel: t = kernels::make_voxel_template(ni); break;
+      }
+      slot = std::make_unique<ParticleTemplate>(std::move(t));
       log->debug("built {} template for particle_grid={}: {} sub-elements", slot->family, n, slot->size());
     }
     return *slot;
@@ -135,20 +109,15 @@ struct Engine::Impl {
 
   void prepare_templates(const Validation& v) {
     bank.clear();
+    bank_first = 0;
     if (opts.method != Method::pmm) return;
     if (opts.particle_grid > 0) {
-      bank_first = 0;
       bank.push_back(&get_template(opts.particle_grid));
       return;
     }
-    bank_first = auto_steps(v.d_min);
-    const std::int64_t last = auto_steps(v.d_max);
+    bank_first = auto_steps(v.d_min, grid.cell_volume());
+    const std::int64_t last = auto_steps(v.d_max, grid.cell_volume());
     for (std::int64_t k = bank_first; k <= last; ++k) bank.push_back(&get_template(5 * k));
-  }
-
-  const ParticleTemplate& template_for(double diameter) const {
-    if (opts.particle_grid > 0) return *bank.front();
-    return *bank[static_cast<std::size_t>(auto_steps(diameter) - bank_first)];
   }
 
   // --- validation ---------------------------------------------------------------------
@@ -211,177 +180,6 @@ struct Engine::Impl {
     return v;
   }
 
-  // --- per-particle kernels -------------------------------------------------------------
-
-  /// Volume that lies outside the mesh, handled by the `outside` policy. nearest_cell is
-  /// the mesh cell nearest to where the volume is.
-  void outside(Scratch& s, std::int64_t p, double volume, std::int64_t nearest_cell,
-               const Eigen::Vector3d& centre, bool& flagged) {
-    if (!flagged) {
-      flagged = true;
-      ++s.outside_particles;
-    }
-    switch (opts.outside) {
-      case Outside::nearest: s.add(nearest_cell, volume); break;
-      case Outside::centre: s.add(grid.nearest(centre), volume); break;
-      case Outside::drop: s.add(grid.cell_count(), volume); break;  // the dropped-volume slot
-      case Outside::error: s.first_error = std::min(s.first_error, p); break;
-    }
-  }
-
-  /// The one cell wholly holding the sphere, or -1.
-  std::int64_t single_cell(const Eigen::Vector3d& c, double r) const {
-    std::int64_t idx[3];
-    for (int d = 0; d < 3; ++d) {
-      const std::int64_t lo = grid.axis_index(d, c[d] - r);
-      if (lo != grid.axis_index(d, c[d] + r) || lo < 0 || lo >= grid.cells()[d]) return -1;
-      idx[d] = lo;
-    }
-    return grid.index(idx[0], idx[1], idx[2]);
-  }
-
-  void direct_particle(Scratch& s, std::int64_t p, const Eigen::Vector3d& c, double volume) {
-    ++s.sub_elements;
-    const std::int64_t cell = grid.locate(c);
-    bool flagged = false;
-    if (cell >= 0)
-      s.add(cell, volume);
-    else
-      outside(s, p, volume, grid.nearest(c), c, flagged);
-  }
-
-  void pmm_particle(Scratch& s, std::int64_t p, const Eigen::Vector3d& c, double r, double volume,
-                    const double* q) {
-    const ParticleTemplate& t = template_for(2 * r);
-    const std::int64_t n = static_cast<std::int64_t>(t.size());
-    s.grid_min = std::min(s.grid_min, n);
-    s.grid_max = std::max(s.grid_max, n);
-    if (const std::int64_t cell = single_cell(c, r); cell >= 0) {
-      ++s.fast_path;
-      s.add(cell, volume);
-      return;
-    }
-    s.sub_elements += n;
-    Eigen::Matrix3d rotation;
-    switch (opts.orientation) {
-      case Orientation::none: rotation.setIdentity(); break;
-      case Orientation::random: rotation = kernels::random_rotation(std::uint64_t(p), opts.seed); break;
-      case Orientation::given: rotation = kernels::rotation_from_quaternion(q); break;
-    }
-    // Map template points straight to cell units relative to the window of cells the
-    // particle can reach, so locating is a truncation and a clamp per axis and deposits
-    // accumulate without a search.
-    const Window w = window(c, r * t.reach);
-    const Eigen::Vector3d inv_h = grid.spacing().cwiseInverse();
-    const Eigen::Matrix3d to_cells = inv_h.asDiagonal() * rotation * r;
-    Eigen::Vector3d base;
-    for (int d = 0; d < 3; ++d) base[d] = grid.axis_coordinate(d, c[d]) - double(w.lo[d]);
-    if (base.cwiseAbs().maxCoeff() > 0x1p40) {  // absurdly far from the mesh: one point
-      bool flagged = false;
-      outside(s, p, volume, grid.nearest(c), c, flagged);
-      return;
-    }
-    s.window.assign(static_cast<std::size_t>(w.m[0] * w.m[1] * w.m[2]), 0.0);
-    const std::int64_t m0 = w.m[0], m1 = w.m[1], m2 = w.m[2];
-    kernels::pmm_deposit(
-        t, base, to_cells, volume,
-        [m0, m1, m2](const Eigen::Vector3d& x) {
-          // Truncation equals floor after the clamp at 0 (x > -2^40 here).
-          const std::int64_t i = std::clamp<std::int64_t>(static_cast<std::int64_t>(x[0]), 0, m0 - 1);
-          const std::int64_t j = std::clamp<std::int64_t>(static_cast<std::int64_t>(x[1]), 0, m1 - 1);
-          const std::int64_t k = std::clamp<std::int64_t>(static_cast<std::int64_t>(x[2]), 0, m2 - 1);
-          return i + m0 * (j + m1 * k);
-        },
-        [&s](std::int64_t local, const Eigen::Vector3d&, double v) { s.window[local] += v; });
-    emit_window(s, p, w, c);
-  }
-
-  /// Cells a sphere of the given reach around c can touch, clamped to one layer of
-  /// virtual cells around the mesh (coordinates -1 and n stand for "beyond this side").
-  struct Window {
-    std::int64_t lo[3];
-    std::int64_t m[3];
-  };
-  Window window(const Eigen::Vector3d& c, double reach) const {
-    Window w;
-    for (int d = 0; d < 3; ++d) {
-      const std::int64_t n = grid.cells()[d];
-      w.lo[d] = std::clamp<std::int64_t>(grid.axis_index(d, c[d] - reach), -1, n);
-      w.m[d] = std::clamp<std::int64_t>(grid.axis_index(d, c[d] + reach), -1, n) - w.lo[d] + 1;
-    }
-    return w;
-  }
-
-  /// Turns a particle's window into deposits: cells of the mesh first (distinct, no
-  /// search), then the virtual cells beyond the mesh through the outside policy.
-  void emit_window(Scratch& s, std::int64_t p, const Window& w, const Eigen::Vector3d& c) {
-    bool any_outside = false;
-    std::size_t local = 0;
-    for (std::int64_t k = 0; k < w.m[2]; ++k)
-      for (std::int64_t j = 0; j < w.m[1]; ++j)
-        for (std::int64_t i = 0; i < w.m[0]; ++i, ++local) {
-          const double v = s.window[local];
-          if (v == 0.0) continue;
-          const std::int64_t gi = w.lo[0] + i, gj = w.lo[1] + j, gk = w.lo[2] + k;
-          if (gi < 0 || gj < 0 || gk < 0 || gi >= grid.cells()[0] || gj >= grid.cells()[1] || gk >= grid.cells()[2])
-            any_outside = true;
-          else
-            s.deposits.push_back({grid.index(gi, gj, gk), v});
-        }
-    if (!any_outside) return;
-    bool flagged = false;
-    local = 0;
-    for (std::int64_t k = 0; k < w.m[2]; ++k)
-      for (std::int64_t j = 0; j < w.m[1]; ++j)
-        for (std::int64_t i = 0; i < w.m[0]; ++i, ++local) {
-          const double v = s.window[local];
-          const std::int64_t g[3] = {w.lo[0] + i, w.lo[1] + j, w.lo[2] + k};
-          bool out = false;
-          for (int d = 0; d < 3; ++d) out |= g[d] < 0 || g[d] >= grid.cells()[d];
-          if (v == 0.0 || !out) continue;
-          outside(s, p, v, grid.index(grid.clamp_axis(0, g[0]), grid.clamp_axis(1, g[1]), grid.clamp_axis(2, g[2])),
-                  c, flagged);
-        }
-  }
-
-  void exact_particle(Scratch& s, std::int64_t p, const Eigen::Vector3d& c, double r, double volume) {
-    if (const std::int64_t cell = single_cell(c, r); cell >= 0) {
-      ++s.fast_path;
-      s.add(cell, volume);
-      return;
-    }
-    std::int64_t lo[3], hi[3];
-    bool empty = false;
-    for (int d = 0; d < 3; ++d) {
-      lo[d] = std::max<std::int64_t>(grid.axis_index(d, c[d] - r), 0);
-      hi[d] = std::min<std::int64_t>(grid.axis_index(d, c[d] + r), grid.cells()[d] - 1);
-      if (lo[d] > hi[d]) empty = true;
-    }
-    bool flagged = false;
-    if (empty) {
-      outside(s, p, volume, grid.nearest(c), c, flagged);
-      return;
-    }
-    int m[3];
-    for (int d = 0; d < 3; ++d) {
-      m[d] = static_cast<int>(hi[d] - lo[d] + 1);
-      s.nodes[d].resize(m[d] + 1);
-      for (int i = 0; i <= m[d]; ++i)
-        s.nodes[d][i] = grid.origin()[d] + double(lo[d] + i) * grid.spacing()[d];
-    }
-    s.sub_elements += std::int64_t(m[0]) * m[1] * m[2];
-    double inside = 0;
-    kernels::sphere_patch_overlaps(c, r, s.nodes[0].data(), m[0], s.nodes[1].data(), m[1],
-                                   s.nodes[2].data(), m[2], s.orthant, s.patch,
-                                   [&](int i, int j, int k, double v) {
-                                     s.add(grid.index(lo[0] + i, lo[1] + j, lo[2] + k), v);
-                                     inside += v;
-                                   });
-    // What the patch misses lies outside the mesh (beyond round-off).
-    const double rest = volume - inside;
-    if (rest > 1e-12 * volume) outside(s, p, rest, grid.nearest(c), c, flagged);
-  }
-
   // --- accumulation ---------------------------------------------------------------------
 
   Accumulation strategy(std::int64_t n) const {
@@ -429,19 +227,26 @@ struct Engine::Impl {
     for (Scratch& s : scratch) s.reset_counters();
     work.assign(ncell + 1, 0.0);
 
+    const detail::Context ctx{grid, opts, detail::TemplateBank{bank, bank_first, opts.particle_grid > 0}, divided};
+    void (*driver)(const detail::Context&, Scratch&, const detail::Particle&) = nullptr;
+    switch (opts.method) {
+      case Method::direct: driver = detail::direct_particle; break;
+      case Method::pmm: driver = detail::pmm_particle; break;
+      case Method::exact: driver = detail::exact_particle; break;
+      case Method::divided: driver = detail::divided_particle; break;
+      case Method::gaussian: driver = detail::gaussian_particle; break;
+      case Method::porous_cube: driver = detail::porous_cube_particle; break;
+      case Method::big_particle: driver = detail::big_particle_particle; break;
+      case Method::trilinear: driver = detail::trilinear_particle; break;
+    }
     auto particle = [&](Scratch& s, std::int64_t p) {
       s.deposits.clear();
       const double* cp = pv.centres + p * cs;
-      const Eigen::Vector3d c(cp[0], cp[1], cp[2]);
       const double r = pv.radii[p * rs];
-      const double volume = 4.0 / 3.0 * std::numbers::pi * r * r * r;
-      switch (opts.method) {
-        case Method::direct: direct_particle(s, p, c, volume); break;
-        case Method::pmm:
-          pmm_particle(s, p, c, r, volume, pv.orientations ? pv.orientations + p * qs : nullptr);
-          break;
-        case Method::exact: exact_particle(s, p, c, r, volume); break;
-      }
+      const detail::Particle particle{p, Eigen::Vector3d(cp[0], cp[1], cp[2]), r,
+                                      4.0 / 3.0 * std::numbers::pi * r * r * r,
+                                      pv.orientations ? pv.orientations + p * qs : nullptr};
+      driver(ctx, s, particle);
     };
 
     switch (acc) {
@@ -498,6 +303,7 @@ struct Engine::Impl {
       rep.particle_grid_max = std::max(rep.particle_grid_max, s.grid_max);
       first_error = std::min(first_error, s.first_error);
     }
+    // Methods without sub-elements report 1 (a pmm compute of no particle reports 0).
     if (rep.particle_grid_max == 0) rep.particle_grid_min = rep.particle_grid_max = opts.method == Method::pmm ? 0 : 1;
     if (first_error != std::numeric_limits<std::int64_t>::max()) {
       const double* cp = pv.centres + first_error * cs;

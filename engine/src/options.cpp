@@ -4,6 +4,8 @@
 
 #include <charconv>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <limits>
 #include <sstream>
 #include <vector>
@@ -14,7 +16,7 @@ namespace {
 
 const char* const kKeys =
     "method, particle_grid, template, orientation, outside, threads, deterministic, alpha_min, "
-    "periodic, accumulation, seed, log_level";
+    "periodic, accumulation, seed, sigma, gamma, log_level";
 
 [[noreturn]] void bad(std::string_view key, std::string_view value, std::string_view expected) {
   throw Error(VFE_ERROR_INVALID_ARGUMENT, "option '" + std::string(key) + "': bad value '" +
@@ -47,6 +49,27 @@ double parse_double(std::string_view key, std::string_view v, double lo, double 
   return x;
 }
 
+/// A number in (0, hi].
+double parse_positive(std::string_view key, std::string_view v, double hi) {
+  const double x = parse_double(key, v, 0.0, hi);
+  if (!(x > 0)) {
+    std::ostringstream e;
+    e << "a number > 0 and <= " << hi;
+    bad(key, v, e.str());
+  }
+  return x;
+}
+
+/// Shortest text that reads back to the same double.
+std::string number_text(double x) {
+  char buf[32];
+  for (int p = 6; p <= 17; ++p) {
+    std::snprintf(buf, sizeof buf, "%.*g", p, x);
+    if (std::strtod(buf, nullptr) == x) break;
+  }
+  return buf;
+}
+
 template <class E, std::size_t N>
 E parse_enum(std::string_view key, std::string_view v, const std::pair<const char*, E> (&table)[N]) {
   std::string names;
@@ -58,9 +81,13 @@ E parse_enum(std::string_view key, std::string_view v, const std::pair<const cha
 }
 
 constexpr std::pair<const char*, Method> kMethods[] = {
-    {"direct", Method::direct}, {"pmm", Method::pmm}, {"exact", Method::exact}};
+    {"direct", Method::direct},           {"pmm", Method::pmm},
+    {"exact", Method::exact},             {"divided", Method::divided},
+    {"gaussian", Method::gaussian},       {"porous_cube", Method::porous_cube},
+    {"big_particle", Method::big_particle}, {"trilinear", Method::trilinear}};
 constexpr std::pair<const char*, TemplateFamily> kTemplates[] = {
-    {"spherical", TemplateFamily::spherical}, {"fibonacci", TemplateFamily::fibonacci}};
+    {"spherical", TemplateFamily::spherical}, {"fibonacci", TemplateFamily::fibonacci},
+    {"voxel", TemplateFamily::voxel}};
 constexpr std::pair<const char*, Orientation> kOrientations[] = {
     {"random", Orientation::random}, {"given", Orientation::given}, {"none", Orientation::none}};
 constexpr std::pair<const char*, Outside> kOutside[] = {
@@ -78,13 +105,10 @@ const char* name_of(E e, const std::pair<const char*, E> (&table)[N]) {
 
 void apply(Options& o, std::string_view key, std::string_view v) {
   if (key == "method") {
-    if (v == "divided" || v == "gaussian" || v == "porous_cube" || v == "big_particle")
-      unsupported(key, v, "direct, pmm, exact");
     o.method = parse_enum(key, v, kMethods);
   } else if (key == "particle_grid") {
     o.particle_grid = v == "auto" ? 0 : parse_int(key, v, 1, 10'000'000);
   } else if (key == "template") {
-    if (v == "voxel") unsupported(key, v, "spherical, fibonacci");
     o.template_family = parse_enum(key, v, kTemplates);
   } else if (key == "orientation") {
     o.orientation = parse_enum(key, v, kOrientations);
@@ -106,6 +130,10 @@ void apply(Options& o, std::string_view key, std::string_view v) {
     o.accumulation = parse_enum(key, v, kAccumulation);
   } else if (key == "seed") {
     o.seed = static_cast<std::uint64_t>(parse_int(key, v, 0, std::numeric_limits<std::int64_t>::max()));
+  } else if (key == "sigma") {
+    o.sigma = parse_positive(key, v, 100.0);
+  } else if (key == "gamma") {
+    o.gamma = parse_positive(key, v, 100.0);
   } else if (key == "log_level") {
     if (v != "trace" && v != "debug" && v != "info" && v != "warn" && v != "error" && v != "off")
       bad(key, v, "one of trace, debug, info, warn, error, off");
@@ -147,11 +175,9 @@ std::string option_value(const Options& o, std::string_view key) {
   if (key == "outside") return name_of(o.outside, kOutside);
   if (key == "threads") return std::to_string(o.threads);
   if (key == "deterministic") return o.deterministic ? "1" : "0";
-  if (key == "alpha_min") {
-    std::ostringstream s;
-    s << o.alpha_min;
-    return s.str();
-  }
+  if (key == "alpha_min") return number_text(o.alpha_min);
+  if (key == "sigma") return number_text(o.sigma);
+  if (key == "gamma") return number_text(o.gamma);
   if (key == "periodic") return "none";
   if (key == "accumulation") return name_of(o.accumulation, kAccumulation);
   if (key == "seed") return std::to_string(o.seed);
@@ -162,7 +188,8 @@ std::string option_value(const Options& o, std::string_view key) {
 std::string format_options(const Options& o) {
   std::string out;
   for (const char* key : {"method", "particle_grid", "template", "orientation", "outside", "threads",
-                          "deterministic", "alpha_min", "periodic", "accumulation", "seed", "log_level"}) {
+                          "deterministic", "alpha_min", "periodic", "accumulation", "seed", "sigma", "gamma",
+                          "log_level"}) {
     if (!out.empty()) out += ' ';
     out += std::string(key) + "=" + option_value(o, key);
   }

@@ -7,11 +7,14 @@
 
 namespace vfe {
 
-enum class Method { direct, pmm, exact };
-enum class TemplateFamily { spherical, fibonacci };
+enum class Method { direct, pmm, exact, divided, gaussian, porous_cube, big_particle, trilinear };
+enum class TemplateFamily { spherical, fibonacci, voxel };
 enum class Orientation { random, given, none };
 enum class Outside { nearest, centre, drop, error };
 enum class Accumulation { automatic, privatised, atomic, sorted };
+
+/// Side of the cube with the volume of a sphere of diameter 1: (pi / 6)^(1/3).
+inline constexpr double kVolumeCube = 0.80599597700823482;
 
 struct Options {
   Method method = Method::pmm;
@@ -24,6 +27,12 @@ struct Options {
   double alpha_min = 0;
   Accumulation accumulation = Accumulation::automatic;
   std::uint64_t seed = 0;  ///< of the per-particle random template rotation
+  /// gaussian: standard deviation in particle diameters; about the sphere's own per-axis
+  /// spread R / sqrt(5) = 0.224 d.
+  double sigma = 0.25;
+  /// porous_cube: cube side in particle diameters; (pi / 6)^(1/3): the cube of the
+  /// sphere's volume.
+  double gamma = kVolumeCube;
   std::string log_level = "warn";
 };
 

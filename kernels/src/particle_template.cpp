@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <numeric>
 
@@ -119,6 +120,57 @@ ParticleTemplate make_fibonacci_template(int n) {
   }
   mean /= n;
   for (auto& p : t.points) p -= mean;
+  set_reach(t);
+  return t;
+}
+
+std::int64_t voxel_count(int m) {
+  // Per column (i, j): the k with z^2 <= 1 - x^2 - y^2, counted in closed form.
+  std::int64_t count = 0;
+  for (int i = 0; i < m; ++i) {
+    const double x = double(2 * i + 1) / m - 1.0;
+    for (int j = 0; j < m; ++j) {
+      const double y = double(2 * j + 1) / m - 1.0;
+      const double rest = 1.0 - x * x - y * y;
+      if (rest < 0) continue;
+      // z = (2k + 1)/m - 1 with |z| <= sqrt(rest): k in [(m(1 - s) - 1)/2, (m(1 + s) - 1)/2].
+      const double s = std::sqrt(rest);
+      const auto k0 = static_cast<std::int64_t>(std::ceil((m * (1.0 - s) - 1.0) / 2.0));
+      const auto k1 = static_cast<std::int64_t>(std::floor((m * (1.0 + s) - 1.0) / 2.0));
+      const std::int64_t lo = std::max<std::int64_t>(k0, 0), hi = std::min<std::int64_t>(k1, m - 1);
+      if (hi >= lo) count += hi - lo + 1;
+    }
+  }
+  return count;
+}
+
+ParticleTemplate make_voxel_template(int n) {
+  n = std::max(n, 1);
+  // The count grows like (pi / 6) m^3: look around that estimate for the nearest count.
+  const int guess = std::max(1, static_cast<int>(std::lround(std::cbrt(6.0 * n / kPi))));
+  int best_m = 1;
+  std::int64_t best_diff = std::numeric_limits<std::int64_t>::max();
+  for (int m = std::max(1, guess - 3); m <= guess + 3; ++m) {
+    const std::int64_t diff = std::abs(voxel_count(m) - std::int64_t(n));
+    if (diff < best_diff) {
+      best_diff = diff;
+      best_m = m;
+    }
+  }
+  const int m = best_m;
+  ParticleTemplate t;
+  t.family = "voxel";
+  t.lattice = m;
+  for (int k = 0; k < m; ++k)
+    for (int j = 0; j < m; ++j)
+      for (int i = 0; i < m; ++i) {
+        const Eigen::Vector3d p(double(2 * i + 1) / m - 1.0, double(2 * j + 1) / m - 1.0,
+                                double(2 * k + 1) / m - 1.0);
+        // The same test as voxel_count, so the sizes agree exactly.
+        const double rest = 1.0 - p[0] * p[0] - p[1] * p[1];
+        if (rest >= 0 && std::abs(p[2]) <= std::sqrt(rest)) t.points.push_back(p);
+      }
+  t.fractions.assign(t.points.size(), 1.0 / double(t.points.size()));
   set_reach(t);
   return t;
 }

@@ -49,9 +49,19 @@ int main(void) {
 
   expected = 4.0 / 3.0 * kPi * (radii[0] * radii[0] * radii[0] + radii[1] * radii[1] * radii[1]);
   {
-    const char* methods[3] = {"method=direct", "method=pmm", "method=exact"};
+    const char* methods[11] = {"method=direct",
+                               "method=pmm",
+                               "method=exact",
+                               "method=divided",
+                               "method=gaussian",
+                               "method=gaussian sigma=1",
+                               "method=porous_cube gamma=2",
+                               "method=porous_cube gamma=1",
+                               "method=big_particle",
+                               "method=trilinear",
+                               "method=pmm template=voxel particle_grid=100"};
     int m;
-    for (m = 0; m < 3; ++m) {
+    for (m = 0; m < 11; ++m) {
       s = vfe_configure(e, methods[m]);
       CHECK(s == VFE_OK, "%s: %s", methods[m], vfe_last_error(e));
       s = vfe_compute(e, 2, centres, radii, NULL, solid);
@@ -73,7 +83,11 @@ int main(void) {
   s = vfe_configure(e, "particle_grid=abc");
   CHECK(s == VFE_ERROR_INVALID_ARGUMENT && strstr(vfe_last_error(e), "particle_grid"), "bad value: %s",
         vfe_last_error(e));
-  CHECK(vfe_configure(e, "method=divided") == VFE_ERROR_UNSUPPORTED, "unsupported method");
+  CHECK(vfe_configure(e, "periodic=x") == VFE_ERROR_UNSUPPORTED, "unsupported option value");
+  s = vfe_configure(e, "method=gaussian sigma=0");
+  CHECK(s == VFE_ERROR_INVALID_ARGUMENT && strstr(vfe_last_error(e), "sigma"), "bad sigma: %s", vfe_last_error(e));
+  s = vfe_configure(e, "gamma=-2");
+  CHECK(s == VFE_ERROR_INVALID_ARGUMENT && strstr(vfe_last_error(e), "gamma"), "bad gamma: %s", vfe_last_error(e));
 
   saved = solid[0];
   solid[0] = -5.0;

@@ -296,7 +296,8 @@ TEST(Engine, BadInputsGiveClearErrorsAndLeaveTheEngineUsable) {
   }
   EXPECT_EQ(e.option("method"), "pmm");  // all or nothing
   try {
-    e.configure("method=gaussian");
+    e.configure("periodic=x");
+    ADD_FAILURE() << "periodic=x was accepted";
   } catch (const vfe::Error& err) {
     EXPECT_EQ(err.status(), VFE_ERROR_UNSUPPORTED);
   }

@@ -16,9 +16,10 @@ struct ParticleTemplate {
   std::vector<Eigen::Vector3d> points;
   /// Each sub-element's share of the particle volume; they sum to 1 (to round-off).
   std::vector<double> fractions;
-  std::string family;  ///< "spherical" or "fibonacci"
+  std::string family;  ///< "spherical", "fibonacci", "voxel" or "divided"
   double reach = 0;    ///< largest |point|: the template's points lie in this ball
   int shells = 0, bands = 0, sectors = 0;  ///< spherical family's layout; 0 for others
+  int lattice = 0;     ///< voxel family: cubes per diameter; 0 for others
 
   std::size_t size() const { return points.size(); }
 };
@@ -32,6 +33,16 @@ ParticleTemplate make_spherical_template(int n);
 /// directions on a Fibonacci spiral, radial order decorrelated from the spiral, the set
 /// recentred so its centroid is the origin. Any n >= 1.
 ParticleTemplate make_fibonacci_template(int n);
+
+/// Cube subdivision: the sphere's bounding cube cut into m x m x m equal cubes; the cubes
+/// whose centres lie in the sphere are the sub-elements, each at its cube's centre with an
+/// equal share of the volume (their volumes rescaled so they sum to the sphere's volume
+/// exactly). m is chosen so the count is nearest to n (the smaller m on a tie); the cube
+/// centres are (2i + 1)/m - 1 per axis, never on the sphere itself. n = 1 gives the centre.
+ParticleTemplate make_voxel_template(int n);
+
+/// Number of cube centres (2i + 1)/m - 1 (i, j, k < m) inside the unit sphere.
+std::int64_t voxel_count(int m);
 
 /// Shells x bands x sectors the spherical family uses for a requested size n.
 Eigen::Vector3i spherical_layout(int n);

@@ -1,0 +1,455 @@
+#include "study_cmd.hpp"
+
+#include "dump_reader.hpp"
+#include "report.hpp"
+#include "run.hpp"
+
+#include <vfe/engine.hpp>
+
+#include <spdlog/logger.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <limits>
+#include <ostream>
+#include <sstream>
+#include <thread>
+
+namespace vfe::apps {
+
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+/// Errors below this count as 0 (the reference against itself is round-off).
+constexpr double kZeroError = 1e-12;
+
+double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  const std::size_t m = v.size() / 2;
+  return v.size() % 2 ? v[m] : 0.5 * (v[m - 1] + v[m]);
+}
+
+double error_of(const StudyPoint& p) { return p.accuracy.l1 < kZeroError ? 0.0 : p.accuracy.l1; }
+
+std::string fmt(const char* f, double v) {
+  if (std::isnan(v)) return "-";
+  char buf[64];
+  std::snprintf(buf, sizeof buf, f, v);
+  return buf;
+}
+
+/// Shortest text that reads back to the same double; NaN as `nan_text`.
+std::string num(double v, const char* nan_text) {
+  if (!std::isfinite(v)) return nan_text;
+  char buf[64];
+  for (int p = 6; p <= 17; ++p) {
+    std::snprintf(buf, sizeof buf, "%.*g", p, v);
+    if (std::strtod(buf, nullptr) == v) break;
+  }
+  return buf;
+}
+
+std::string quoted(const std::string& s) {
+  std::string o = "\"";
+  for (char c : s) {
+    if (c == '"' || c == '\\') o += '\\';
+    o += c;
+  }
+  return o + "\"";
+}
+
+std::string csv_field(const std::string& s) {
+  if (s.find_first_of(",\"\n") == std::string::npos) return s;
+  std::string o = "\"";
+  for (char c : s) o += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return o + "\"";
+}
+
+void write_file(const fs::path& file, const std::string& text) {
+  std::ofstream out(file);
+  out << text;
+  out.flush();
+  if (!out)
+    throw std::runtime_error(file.string() + ": cannot write the file; check that the output folder is writable");
+}
+
+/// Prints rows of cells as aligned columns (first column left-aligned).
+void print_columns(std::ostream& out, const std::vector<std::vector<std::string>>& rows) {
+  if (rows.empty()) return;
+  std::vector<std::size_t> w(rows[0].size(), 0);
+  for (const auto& r : rows)
+    for (std::size_t c = 0; c < r.size(); ++c) w[c] = std::max(w[c], r[c].size());
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    std::string line;
+    for (std::size_t c = 0; c < rows[i].size(); ++c) {
+      const std::string pad(w[c] - rows[i][c].size(), ' ');
+      if (c) line += "  ";
+      line += c < 2 ? rows[i][c] + pad : pad + rows[i][c];
+    }
+    while (!line.empty() && line.back() == ' ') line.pop_back();
+    out << line << '\n';
+    if (i == 0) {
+      std::size_t total = 2 * (w.size() - 1);
+      for (auto x : w) total += x;
+      out << std::string(total, '-') << '\n';
+    }
+  }
+}
+
+struct Job {
+  MethodSpec spec;      ///< the family entry
+  std::string setting;  ///< "" without settings
+  std::string options;  ///< full engine options
+};
+
+}  // namespace
+
+Front make_front(std::vector<std::pair<double, double>> points) {
+  std::sort(points.begin(), points.end(), [](const auto& a, const auto& b) {
+    return a.first < b.first || (a.first == b.first && a.second < b.second);
+  });
+  Front f;
+  for (const auto& [t, e] : points)
+    if (f.error.empty() || e < f.error.back()) {
+      f.time.push_back(t);
+      f.error.push_back(e);
+    }
+  return f;
+}
+
+double front_time_at_error(const Front& f, double e, std::string* note) {
+  if (note) note->clear();
+  if (f.time.empty() || e < f.error.back() || !(e > 0)) {
+    if (note) *note = "n/a";
+    return kNaN;
+  }
+  if (e >= f.error.front()) {
+    if (note) *note = ">=";
+    return f.time.front();
+  }
+  for (std::size_t i = 0; i + 1 < f.time.size(); ++i)
+    if (e <= f.error[i] && e >= f.error[i + 1]) {
+      const double a = std::log(f.error[i]), b = std::log(f.error[i + 1]);
+      const double s = b < a && std::isfinite(b) ? (std::log(e) - a) / (b - a) : 1.0;
+      return std::exp(std::log(f.time[i]) + s * (std::log(f.time[i + 1]) - std::log(f.time[i])));
+    }
+  return f.time.back();
+}
+
+double front_error_at_time(const Front& f, double t, std::string* note) {
+  if (note) note->clear();
+  if (f.time.empty() || t < f.time.front() || !(t > 0)) {
+    if (note) *note = "n/a";
+    return kNaN;
+  }
+  if (t >= f.time.back()) {
+    if (note) *note = f.time.size() > 1 || t > f.time.back() ? ">=" : "";
+    return f.error.back();
+  }
+  for (std::size_t i = 0; i + 1 < f.time.size(); ++i)
+    if (t >= f.time[i] && t <= f.time[i + 1]) {
+      const double a = std::log(f.time[i]), b = std::log(f.time[i + 1]);
+      const double s = b > a ? (std::log(t) - a) / (b - a) : 1.0;
+      if (!(f.error[i + 1] > 0)) return s < 1 ? std::exp(std::log(f.error[i])) : 0.0;
+      return std::exp(std::log(f.error[i]) + s * (std::log(f.error[i + 1]) - std::log(f.error[i])));
+    }
+  return f.error.back();
+}
+
+void mark_pareto(std::vector<StudyPoint>& points) {
+  for (auto& p : points) {
+    p.pareto = true;
+    for (const auto& q : points) {
+      if (&q == &p || q.mesh != p.mesh) continue;
+      const double tp = p.time_median_ms, tq = q.time_median_ms, ep = error_of(p), eq = error_of(q);
+      if (tq <= tp && eq <= ep && (tq < tp || eq < ep)) {
+        p.pareto = false;
+        break;
+      }
+    }
+  }
+}
+
+namespace {
+
+std::vector<StudyComparison> compare(const std::vector<StudyPoint>& points, const std::string& base) {
+  std::vector<StudyComparison> out;
+  std::vector<std::string> meshes;
+  for (const auto& p : points)
+    if (std::find(meshes.begin(), meshes.end(), p.mesh) == meshes.end()) meshes.push_back(p.mesh);
+  for (const auto& mesh : meshes) {
+    std::vector<std::pair<double, double>> base_points;
+    for (const auto& p : points)
+      if (p.mesh == mesh && p.family == base) base_points.emplace_back(p.time_median_ms, error_of(p));
+    if (base_points.empty()) continue;
+    const Front front = make_front(base_points);
+    for (const auto& p : points) {
+      if (p.mesh != mesh || p.family == base) continue;
+      StudyComparison c;
+      c.mesh = mesh;
+      c.chi = p.chi;
+      c.family = p.family;
+      c.setting = p.setting;
+      c.time_ms = p.time_median_ms;
+      c.l1 = error_of(p);
+      c.base_time_at_error = front_time_at_error(front, c.l1, &c.speedup_note);
+      c.speedup = c.time_ms / c.base_time_at_error;
+      c.base_error_at_time = front_error_at_time(front, c.time_ms, &c.gain_note);
+      c.accuracy_gain = c.l1 > 0 ? c.l1 / c.base_error_at_time : kNaN;
+      if (!(c.l1 > 0)) c.gain_note = "n/a";
+      out.push_back(std::move(c));
+    }
+  }
+  return out;
+}
+
+std::string setting_text(const StudyPoint& p) { return p.setting.empty() ? "-" : p.setting; }
+
+void print_mesh_tables(std::ostream& out, const std::string& scene, const std::string& base,
+                       const std::vector<StudyPoint>& pts, const std::vector<StudyComparison>& cmp) {
+  const StudyPoint& first = pts.front();
+  char title[512];
+  std::snprintf(title, sizeof title,
+                "\n%s / mesh %s: %lld x %lld x %lld cells of %.3g (chi = %.3g), %lld particles, %d thread(s), "
+                "median of %d",
+                scene.c_str(), first.mesh.c_str(), static_cast<long long>(first.grid[0]),
+                static_cast<long long>(first.grid[1]), static_cast<long long>(first.grid[2]), first.cell_size,
+                first.chi, static_cast<long long>(first.particles), first.threads, first.repeats);
+  out << title << '\n';
+  std::vector<std::vector<std::string>> rows = {
+      {"family", "setting", "ms/compute", "theta", "max|err|", "L1", "grid", "pareto"}};
+  for (const auto& p : pts)
+    rows.push_back({p.family + (p.is_reference ? " *" : ""), setting_text(p), fmt("%.3f", p.time_median_ms),
+                    fmt("%.3e", p.accuracy.theta), fmt("%.3e", p.accuracy.max_error), fmt("%.3e", p.accuracy.l1),
+                    grid_range(p.particle_grid_min, p.particle_grid_max), p.pareto ? "yes" : ""});
+  print_columns(out, rows);
+  if (cmp.empty()) return;
+  out << "\n" << base << " against every other point (L1; log-log interpolation along " << base << "'s front):\n";
+  rows = {{"family", "setting", "ms", "L1", base + " ms at L1", "speedup", base + " L1 at ms", "L1 ratio"}};
+  for (const auto& c : cmp)
+    rows.push_back({c.family, c.setting.empty() ? "-" : c.setting, fmt("%.3f", c.time_ms), fmt("%.3e", c.l1),
+                    fmt("%.3f", c.base_time_at_error),
+                    c.speedup_note == "n/a" ? "n/a" : c.speedup_note + fmt("%.2f", c.speedup),
+                    fmt("%.3e", c.base_error_at_time),
+                    c.gain_note == "n/a" ? "n/a" : c.gain_note + fmt("%.2f", c.accuracy_gain)});
+  print_columns(out, rows);
+  out << "(speedup = ms / " << base << " ms at the same L1; L1 ratio = L1 / " << base
+      << " L1 at the same ms; '>=' a bound: " << base << "'s settings go no further; * reference)\n";
+  out.flush();
+}
+
+}  // namespace
+
+StudyResult run_study(const SceneConfig& cfg, const StudyOptions& opt) {
+  const auto log = opt.logger ? opt.logger : make_app_logger(true);
+  const std::string source = cfg.source.string();
+  const int repeats = opt.repeats.value_or(cfg.repeats);
+  if (repeats < 1) throw ConfigError(source + ": repeats must be >= 1 (got " + std::to_string(repeats) + ")");
+  const std::vector<double> chis = opt.chi.value_or(cfg.chi);
+  for (double x : chis)
+    if (!(x > 0)) throw ConfigError("chi must be > 0 (got " + std::to_string(x) + ")");
+  if (chis.empty() && cfg.meshes.empty())
+    throw ConfigError(source + ": the study has no grid; add chi: [0.75, 1, 2, 3] (or meshes)");
+  const fs::path out_dir = opt.output.value_or(cfg.output);
+
+  std::vector<std::string> global_parts = {"threads=" + std::to_string(cfg.threads), cfg.options};
+  if (opt.threads) global_parts.push_back("threads=" + std::to_string(*opt.threads));
+  std::string global;
+  try {
+    global = merge_options(global_parts);
+  } catch (const ConfigError& e) {
+    throw ConfigError(source + ": options: " + e.what());
+  }
+
+  // Every (family, setting), checked on a one-cell engine before the particles are read.
+  std::vector<Job> jobs;
+  std::string defaults;
+  int threads_used = 0;
+  {
+    vfe::Engine probe(vfe::CartesianGridSpec{});
+    defaults = probe.options();
+    auto options_of = [&](const MethodSpec& m, const std::string& setting, const std::string& what) {
+      const std::string o = merge_options({defaults, global, "method=" + m.method, m.options, setting});
+      try {
+        probe.configure(o);
+      } catch (const vfe::Error& e) {
+        throw ConfigError(source + ": " + what + " '" + m.label + "'" +
+                          (setting.empty() ? std::string() : " setting '" + setting + "'") + ": " + e.what());
+      }
+      return o;
+    };
+    (void)options_of(cfg.reference, "", "reference");
+    for (const auto& m : cfg.methods) {
+      if (m.settings.empty()) jobs.push_back({m, "", options_of(m, "", "method")});
+      for (const auto& s : m.settings) jobs.push_back({m, s, options_of(m, s, "method")});
+    }
+    probe.configure(merge_options({defaults, global}));
+    const int t = std::stoi(probe.option("threads"));
+    const unsigned hc = std::thread::hardware_concurrency();
+    threads_used = t > 0 ? t : (hc ? static_cast<int>(hc) : 1);
+  }
+  const std::string reference_options =
+      merge_options({defaults, global, "method=" + cfg.reference.method, cfg.reference.options});
+
+  log->info("reading {}", cfg.particles_file.string());
+  const DumpFrame frame = read_dump_frame(cfg.particles_file.string(), FrameSelector{cfg.frame});
+  const double mean_d = frame.mean_diameter();
+  if (!chis.empty() && !(mean_d > 0))
+    throw ConfigError(source + ": chi needs particles to size the cells (the frame has none)");
+  const vfe::ParticleView particles = frame.view();
+  log->info("{} particles (mean diameter {:.4g}); {} points per grid, {} timed computes each", frame.n, mean_d,
+            jobs.size(), repeats);
+
+  std::error_code ec;
+  fs::create_directories(out_dir, ec);
+  if (ec || !fs::is_directory(out_dir))
+    throw std::runtime_error(out_dir.string() + ": cannot create the output folder (" + ec.message() +
+                             "); choose another with --output or 'output:'");
+
+  std::vector<MeshSpec> meshes = cfg.meshes;
+  for (double x : chis) meshes.push_back(chi_mesh(x, mean_d));
+
+  StudyResult result;
+  result.output = out_dir;
+  for (const MeshSpec& mesh : meshes) {
+    std::string note;
+    const vfe::CartesianGridSpec grid = resolve_grid(mesh, &frame.box, source, &note);
+    vfe::Engine engine(grid);
+    const auto ncells = static_cast<std::size_t>(engine.cell_count());
+    std::vector<double> cell_volume(ncells), ref(ncells), solid(ncells);
+    engine.cell_volumes(cell_volume);
+    const double cell_size = std::cbrt(cell_volume.empty() ? 0.0 : cell_volume[0]);
+    const double chi = mean_d > 0 ? cell_size / mean_d : 0.0;
+    log->info("mesh '{}': {} x {} x {} cells of {:.4g} (chi = {:.3g})", mesh.name, grid.cells[0], grid.cells[1],
+              grid.cells[2], cell_size, chi);
+    engine.configure(reference_options);
+    engine.compute(particles, ref);
+    const double particle_volume = engine.last_report().particle_volume;
+
+    // Warm-up and errors, one point after the other; then the timed computes in turns
+    // (every point once per round), so drifts of a shared machine touch all alike.
+    std::vector<StudyPoint> pts(jobs.size());
+    for (std::size_t i = 0; i < jobs.size(); ++i) {
+      const Job& job = jobs[i];
+      engine.configure(job.options);
+      engine.compute(particles, solid);
+      const vfe::Report rep = engine.last_report();
+      StudyPoint& p = pts[i];
+      p.mesh = mesh.name;
+      p.family = job.spec.label;
+      p.method = job.spec.method;
+      p.setting = job.setting;
+      p.options = job.options;
+      p.is_reference = job.options == reference_options;
+      p.chi = chi;
+      p.cell_size = cell_size;
+      p.grid = grid.cells;
+      p.cells = static_cast<std::int64_t>(ncells);
+      p.particles = frame.n;
+      p.threads = threads_used;
+      p.repeats = repeats;
+      p.accuracy = vfe::compare_fields(solid, ref, cell_volume, particle_volume);
+      p.fast_path_particles = rep.fast_path_particles;
+      p.sub_elements = rep.sub_elements;
+      p.particle_grid_min = rep.particle_grid_min;
+      p.particle_grid_max = rep.particle_grid_max;
+    }
+    std::vector<std::vector<double>> times(jobs.size());
+    for (int r = 0; r < repeats; ++r)
+      for (std::size_t i = 0; i < jobs.size(); ++i) {
+        engine.configure(jobs[i].options);
+        const auto t0 = Clock::now();
+        engine.compute(particles, solid);
+        times[i].push_back(ms_since(t0));
+      }
+    for (std::size_t i = 0; i < jobs.size(); ++i) {
+      pts[i].time_median_ms = median(times[i]);
+      pts[i].time_min_ms = *std::min_element(times[i].begin(), times[i].end());
+    }
+    mark_pareto(pts);
+    const std::vector<StudyComparison> cmp = compare(pts, opt.base);
+    if (opt.table) print_mesh_tables(*opt.table, cfg.name, opt.base, pts, cmp);
+    result.points.insert(result.points.end(), pts.begin(), pts.end());
+    result.comparisons.insert(result.comparisons.end(), cmp.begin(), cmp.end());
+  }
+
+  // study.csv, comparisons.csv, study.json.
+  std::ostringstream csv;
+  csv << "scene,mesh,chi,cell_size,nx,ny,nz,cells,particles,threads,repeats,family,method,setting,options,"
+         "reference,time_median_ms,time_min_ms,theta,max_error,l1,volume_error,cells_compared,fast_path_particles,"
+         "sub_elements,particle_grid_min,particle_grid_max,pareto\n";
+  for (const auto& p : result.points)
+    csv << csv_field(cfg.name) << ',' << csv_field(p.mesh) << ',' << num(p.chi, "nan") << ','
+        << num(p.cell_size, "nan") << ',' << p.grid[0] << ',' << p.grid[1] << ',' << p.grid[2] << ',' << p.cells
+        << ',' << p.particles << ',' << p.threads << ',' << p.repeats << ',' << csv_field(p.family) << ','
+        << csv_field(p.method) << ',' << csv_field(p.setting) << ',' << csv_field(p.options) << ','
+        << (p.is_reference ? 1 : 0) << ',' << num(p.time_median_ms, "nan") << ',' << num(p.time_min_ms, "nan")
+        << ',' << num(p.accuracy.theta, "nan") << ',' << num(p.accuracy.max_error, "nan") << ','
+        << num(p.accuracy.l1, "nan") << ',' << num(p.accuracy.volume_error, "nan") << ','
+        << p.accuracy.cells_compared << ',' << p.fast_path_particles << ',' << p.sub_elements << ','
+        << p.particle_grid_min << ',' << p.particle_grid_max << ',' << (p.pareto ? 1 : 0) << '\n';
+  write_file(out_dir / "study.csv", csv.str());
+
+  std::ostringstream ccsv;
+  ccsv << "scene,mesh,chi,base,family,setting,time_ms,l1,base_time_at_error,speedup,speedup_note,"
+          "base_error_at_time,accuracy_gain,gain_note\n";
+  for (const auto& c : result.comparisons)
+    ccsv << csv_field(cfg.name) << ',' << csv_field(c.mesh) << ',' << num(c.chi, "nan") << ','
+         << csv_field(opt.base) << ',' << csv_field(c.family) << ',' << csv_field(c.setting) << ','
+         << num(c.time_ms, "nan") << ',' << num(c.l1, "nan") << ',' << num(c.base_time_at_error, "nan") << ','
+         << num(c.speedup, "nan") << ',' << csv_field(c.speedup_note) << ',' << num(c.base_error_at_time, "nan")
+         << ',' << num(c.accuracy_gain, "nan") << ',' << csv_field(c.gain_note) << '\n';
+  write_file(out_dir / "comparisons.csv", ccsv.str());
+
+  std::ostringstream js;
+  js << "{\n  \"scene\": " << quoted(cfg.name) << ",\n  \"vfe_version\": " << quoted(vfe_version())
+     << ",\n  \"particles_file\": " << quoted(cfg.particles_file.filename().string())
+     << ",\n  \"timestep\": " << frame.timestep << ",\n  \"particles\": " << frame.n
+     << ",\n  \"mean_diameter\": " << num(mean_d, "null") << ",\n  \"threads\": " << threads_used
+     << ",\n  \"repeats\": " << repeats << ",\n  \"options\": " << quoted(global)
+     << ",\n  \"reference\": " << quoted(cfg.reference.label) << ",\n  \"base\": " << quoted(opt.base)
+     << ",\n  \"error_measure\": \"l1\",\n  \"points\": [";
+  for (std::size_t i = 0; i < result.points.size(); ++i) {
+    const auto& p = result.points[i];
+    js << (i ? ",\n" : "\n") << "    {\"mesh\": " << quoted(p.mesh) << ", \"chi\": " << num(p.chi, "null")
+       << ", \"cell_size\": " << num(p.cell_size, "null") << ", \"grid\": [" << p.grid[0] << ", " << p.grid[1]
+       << ", " << p.grid[2] << "], \"family\": " << quoted(p.family) << ", \"method\": " << quoted(p.method)
+       << ", \"setting\": " << quoted(p.setting) << ", \"options\": " << quoted(p.options)
+       << ", \"reference\": " << (p.is_reference ? "true" : "false")
+       << ", \"time_median_ms\": " << num(p.time_median_ms, "null")
+       << ", \"time_min_ms\": " << num(p.time_min_ms, "null") << ", \"theta\": " << num(p.accuracy.theta, "null")
+       << ", \"max_error\": " << num(p.accuracy.max_error, "null") << ", \"l1\": " << num(p.accuracy.l1, "null")
+       << ", \"volume_error\": " << num(p.accuracy.volume_error, "null")
+       << ", \"fast_path_particles\": " << p.fast_path_particles << ", \"sub_elements\": " << p.sub_elements
+       << ", \"particle_grid_min\": " << p.particle_grid_min << ", \"particle_grid_max\": " << p.particle_grid_max
+       << ", \"pareto\": " << (p.pareto ? "true" : "false") << "}";
+  }
+  js << "\n  ],\n  \"comparisons\": [";
+  for (std::size_t i = 0; i < result.comparisons.size(); ++i) {
+    const auto& c = result.comparisons[i];
+    js << (i ? ",\n" : "\n") << "    {\"mesh\": " << quoted(c.mesh) << ", \"chi\": " << num(c.chi, "null")
+       << ", \"family\": " << quoted(c.family) << ", \"setting\": " << quoted(c.setting)
+       << ", \"time_ms\": " << num(c.time_ms, "null") << ", \"l1\": " << num(c.l1, "null")
+       << ", \"base_time_at_error\": " << num(c.base_time_at_error, "null")
+       << ", \"speedup\": " << num(c.speedup, "null") << ", \"speedup_note\": " << quoted(c.speedup_note)
+       << ", \"base_error_at_time\": " << num(c.base_error_at_time, "null")
+       << ", \"accuracy_gain\": " << num(c.accuracy_gain, "null") << ", \"gain_note\": " << quoted(c.gain_note)
+       << "}";
+  }
+  js << "\n  ]\n}\n";
+  write_file(out_dir / "study.json", js.str());
+  log->info("wrote {}, {} and {}", (out_dir / "study.csv").string(), (out_dir / "comparisons.csv").string(),
+            (out_dir / "study.json").string());
+  return result;
+}
+
+}  // namespace vfe::apps

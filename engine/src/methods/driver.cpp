@@ -1,0 +1,123 @@
+#include "methods/driver.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace vfe::detail {
+
+std::int64_t auto_steps(double diameter, double cell_volume) {
+  const double x = 27.0 * diameter * diameter * diameter / cell_volume;
+  const double k = std::ceil(x * (1.0 - 1e-12));
+  return std::clamp<std::int64_t>(static_cast<std::int64_t>(std::min(k, 1e9)), 1, kMaxAutoGrid / 5);
+}
+
+Window make_window(const CartesianGrid& grid, const Eigen::Vector3d& c, const Eigen::Vector3d& half) {
+  Window w;
+  for (int d = 0; d < 3; ++d) {
+    const std::int64_t n = grid.cells()[d];
+    w.lo[d] = std::clamp<std::int64_t>(grid.axis_index(d, c[d] - half[d]), -1, n);
+    w.m[d] = std::clamp<std::int64_t>(grid.axis_index(d, c[d] + half[d]), -1, n) - w.lo[d] + 1;
+  }
+  return w;
+}
+
+void window_nodes(const CartesianGrid& grid, const Window& w, int d, std::vector<double>& nodes) {
+  const std::int64_t n = grid.cells()[d];
+  nodes.resize(static_cast<std::size_t>(w.m[d] + 1));
+  for (std::int64_t i = 0; i <= w.m[d]; ++i) {
+    const std::int64_t g = w.lo[d] + i;
+    nodes[i] = g < 0 ? -std::numeric_limits<double>::infinity()
+                     : (g > n ? std::numeric_limits<double>::infinity() : double(g));
+  }
+}
+
+std::int64_t single_cell(const CartesianGrid& grid, const Eigen::Vector3d& c, const Eigen::Vector3d& half) {
+  std::int64_t idx[3];
+  for (int d = 0; d < 3; ++d) {
+    const std::int64_t lo = grid.axis_index(d, c[d] - half[d]);
+    if (lo != grid.axis_index(d, c[d] + half[d]) || lo < 0 || lo >= grid.cells()[d]) return -1;
+    idx[d] = lo;
+  }
+  return grid.index(idx[0], idx[1], idx[2]);
+}
+
+void outside(const Context& ctx, Scratch& s, const Particle& p, double volume, std::int64_t nearest_cell,
+             bool& flagged, Outside policy) {
+  if (!flagged) {
+    flagged = true;
+    ++s.outside_particles;
+  }
+  switch (policy) {
+    case Outside::nearest: s.add(nearest_cell, volume); break;
+    case Outside::centre: s.add(ctx.grid.nearest(p.centre), volume); break;
+    case Outside::drop: s.add(ctx.grid.cell_count(), volume); break;  // the dropped-volume slot
+    case Outside::error: s.first_error = std::min(s.first_error, p.index); break;
+  }
+}
+
+void emit_window(const Context& ctx, Scratch& s, const Particle& p, const Window& w, Outside policy) {
+  const CartesianGrid& grid = ctx.grid;
+  bool any_outside = false;
+  std::size_t local = 0;
+  for (std::int64_t k = 0; k < w.m[2]; ++k)
+    for (std::int64_t j = 0; j < w.m[1]; ++j)
+      for (std::int64_t i = 0; i < w.m[0]; ++i, ++local) {
+        const double v = s.window[local];
+        if (v == 0.0) continue;
+        const std::int64_t gi = w.lo[0] + i, gj = w.lo[1] + j, gk = w.lo[2] + k;
+        if (gi < 0 || gj < 0 || gk < 0 || gi >= grid.cells()[0] || gj >= grid.cells()[1] || gk >= grid.cells()[2])
+          any_outside = true;
+        else
+          s.deposits.push_back({grid.index(gi, gj, gk), v});
+      }
+  if (!any_outside) return;
+  bool flagged = false;
+  local = 0;
+  for (std::int64_t k = 0; k < w.m[2]; ++k)
+    for (std::int64_t j = 0; j < w.m[1]; ++j)
+      for (std::int64_t i = 0; i < w.m[0]; ++i, ++local) {
+        const double v = s.window[local];
+        const std::int64_t g[3] = {w.lo[0] + i, w.lo[1] + j, w.lo[2] + k};
+        bool out = false;
+        for (int d = 0; d < 3; ++d) out |= g[d] < 0 || g[d] >= grid.cells()[d];
+        if (v == 0.0 || !out) continue;
+        outside(ctx, s, p, v,
+                grid.index(grid.clamp_axis(0, g[0]), grid.clamp_axis(1, g[1]), grid.clamp_axis(2, g[2])), flagged,
+                policy);
+      }
+}
+
+void deposit_points(const Context& ctx, Scratch& s, const Particle& p, const kernels::ParticleTemplate& t,
+                    const Eigen::Matrix3d& rotation, Outside policy) {
+  const CartesianGrid& grid = ctx.grid;
+  const Eigen::Vector3d& c = p.centre;
+  const double r = p.radius;
+  // Map template points straight to cell units relative to the window of cells the
+  // particle can reach, so locating is a truncation and a clamp per axis and deposits
+  // accumulate without a search.
+  const Window w = make_window(grid, c, Eigen::Vector3d::Constant(r * t.reach));
+  const Eigen::Vector3d inv_h = grid.spacing().cwiseInverse();
+  const Eigen::Matrix3d to_cells = inv_h.asDiagonal() * rotation * r;
+  Eigen::Vector3d base;
+  for (int d = 0; d < 3; ++d) base[d] = grid.axis_coordinate(d, c[d]) - double(w.lo[d]);
+  if (base.cwiseAbs().maxCoeff() > 0x1p40) {  // absurdly far from the mesh: one point
+    bool flagged = false;
+    outside(ctx, s, p, p.volume, grid.nearest(c), flagged, policy);
+    return;
+  }
+  s.window.assign(w.size(), 0.0);
+  const std::int64_t m0 = w.m[0], m1 = w.m[1], m2 = w.m[2];
+  kernels::pmm_deposit(
+      t, base, to_cells, p.volume,
+      [m0, m1, m2](const Eigen::Vector3d& x) {
+        // Truncation equals floor after the clamp at 0 (x > -2^40 here).
+        const std::int64_t i = std::clamp<std::int64_t>(static_cast<std::int64_t>(x[0]), 0, m0 - 1);
+        const std::int64_t j = std::clamp<std::int64_t>(static_cast<std::int64_t>(x[1]), 0, m1 - 1);
+        const std::int64_t k = std::clamp<std::int64_t>(static_cast<std::int64_t>(x[2]), 0, m2 - 1);
+        return i + m0 * (j + m1 * k);
+      },
+      [&s](std::int64_t local, const Eigen::Vector3d&, double v) { s.window[local] += v; });
+  emit_window(ctx, s, p, w, policy);
+}
+
+}  // namespace vfe::detail

@@ -1,0 +1,137 @@
+// What the per-method drivers share: one particle's deposits, the window of cells it can
+// reach, and the outside policy. Each method's driver is one function in its own file
+// (methods/<method>.cpp); its mathematics is in kernels/. The engine (engine.cpp)
+// validates, schedules particle blocks over threads, calls a driver per particle and
+// accumulates the deposits.
+#pragma once
+
+#include "cartesian_grid.hpp"
+#include "options.hpp"
+
+#include <vfe/kernels/particle_template.hpp>
+
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <limits>
+#include <span>
+#include <vector>
+
+namespace vfe::detail {
+
+struct Deposit {
+  std::int64_t cell;  ///< mesh cell, or cell_count() for the dropped-volume slot
+  double volume;
+};
+
+/// Per-thread working memory, allocated once and reused by every particle.
+struct Scratch {
+  std::vector<Deposit> deposits;                 // one particle's deposits, merged by cell
+  std::vector<double> nodes[3], orthant, patch;  // exact method
+  std::vector<double> window;                    // volume per cell of the particle's window
+  std::vector<double> axis[3];                   // separable methods: weights per axis
+  std::int64_t fast_path = 0, sub_elements = 0, outside_particles = 0;
+  std::int64_t first_error = std::numeric_limits<std::int64_t>::max();
+  std::int64_t grid_min = std::numeric_limits<std::int64_t>::max(), grid_max = 0;
+
+  void reset_counters() {
+    fast_path = sub_elements = outside_particles = grid_max = 0;
+    first_error = grid_min = std::numeric_limits<std::int64_t>::max();
+  }
+
+  void add(std::int64_t cell, double v) {
+    // A particle touches a handful of cells: a backward linear search is the cheapest merge.
+    for (auto it = deposits.rbegin(); it != deposits.rend(); ++it)
+      if (it->cell == cell) {
+        it->volume += v;
+        return;
+      }
+    deposits.push_back({cell, v});
+  }
+
+  void count_grid(std::int64_t n) {
+    grid_min = std::min(grid_min, n);
+    grid_max = std::max(grid_max, n);
+  }
+};
+
+/// One particle as the drivers see it.
+struct Particle {
+  std::int64_t index;
+  Eigen::Vector3d centre;
+  double radius;
+  double volume;
+  const double* orientation;  ///< quaternion (w, x, y, z) or null
+};
+
+/// PMM's templates for this compute: one fixed size, or one per auto step.
+struct TemplateBank {
+  std::span<const kernels::ParticleTemplate* const> templates;
+  std::int64_t first_step = 0;  ///< auto step of templates[0]
+  bool fixed = false;           ///< particle_grid given: templates[0] for every particle
+};
+
+/// Auto step k of a particle of this diameter: particle_grid = 5 k, k = ceil(27 / chi^3)
+/// (DESIGN section 5's default criterion), clamped to [1, kMaxAutoGrid / 5].
+std::int64_t auto_steps(double diameter, double cell_volume);
+/// Largest particle grid `auto` may choose (a particle 8x larger than its cell).
+inline constexpr std::int64_t kMaxAutoGrid = 5 * 27 * 512;
+
+/// What a driver reads during one compute (never writes).
+struct Context {
+  const CartesianGrid& grid;
+  const Options& opts;
+  TemplateBank bank;
+  const kernels::ParticleTemplate& divided;  ///< the divided method's 29 points
+
+  const kernels::ParticleTemplate& template_for(double diameter) const {
+    if (bank.fixed) return *bank.templates.front();
+    return *bank.templates[static_cast<std::size_t>(auto_steps(diameter, grid.cell_volume()) - bank.first_step)];
+  }
+};
+
+/// The cells a footprint around a centre can touch: per axis the cells from the one holding
+/// centre - half to the one holding centre + half, clamped to one layer of virtual cells
+/// around the mesh (coordinates -1 and n stand for "beyond this side"). Its local cell
+/// (i, j, k) has index i + m[0] * (j + m[1] * k).
+struct Window {
+  std::int64_t lo[3];
+  std::int64_t m[3];
+  std::size_t size() const { return static_cast<std::size_t>(m[0] * m[1] * m[2]); }
+};
+Window make_window(const CartesianGrid& grid, const Eigen::Vector3d& centre, const Eigen::Vector3d& half);
+
+/// Node coordinates of a window's cells along axis d in cell units (cell g spans [g, g+1]),
+/// m[d] + 1 values; the virtual cell below the mesh starts at -infinity and the one above
+/// ends at +infinity.
+void window_nodes(const CartesianGrid& grid, const Window& w, int d, std::vector<double>& nodes);
+
+/// The one mesh cell wholly holding the box centre +- half, or -1.
+std::int64_t single_cell(const CartesianGrid& grid, const Eigen::Vector3d& centre, const Eigen::Vector3d& half);
+
+/// Volume of particle p that lies outside the mesh, handled by `policy`. nearest_cell is
+/// the mesh cell nearest to where the volume is; flagged counts the particle once.
+void outside(const Context& ctx, Scratch& s, const Particle& p, double volume, std::int64_t nearest_cell,
+             bool& flagged, Outside policy);
+
+/// Turns the window's volumes (s.window, local cell order) into deposits: cells of the
+/// mesh first (distinct, no search), then the virtual cells beyond the mesh through the
+/// outside policy.
+void emit_window(const Context& ctx, Scratch& s, const Particle& p, const Window& w, Outside policy);
+
+/// Deposits every point of a template (unit sphere) mapped by centre + transform * point
+/// to the cell holding it, through the window machinery. transform: rotation times radius.
+void deposit_points(const Context& ctx, Scratch& s, const Particle& p, const kernels::ParticleTemplate& t,
+                    const Eigen::Matrix3d& transform, Outside policy);
+
+// One function per method: the particle's deposits into s (s.deposits is empty on entry).
+void direct_particle(const Context& ctx, Scratch& s, const Particle& p);
+void pmm_particle(const Context& ctx, Scratch& s, const Particle& p);
+void exact_particle(const Context& ctx, Scratch& s, const Particle& p);
+void divided_particle(const Context& ctx, Scratch& s, const Particle& p);
+void gaussian_particle(const Context& ctx, Scratch& s, const Particle& p);
+void porous_cube_particle(const Context& ctx, Scratch& s, const Particle& p);
+void big_particle_particle(const Context& ctx, Scratch& s, const Particle& p);
+void trilinear_particle(const Context& ctx, Scratch& s, const Particle& p);
+
+}  // namespace vfe::detail

@@ -1,0 +1,90 @@
+#include "polymesh/rectilinear_grid.hpp"
+
+#include <vfe/engine.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+namespace vfe {
+
+RectilinearGrid::RectilinearGrid(std::array<std::vector<double>, 3> nodes) : nodes_(std::move(nodes)) {
+  const char* axis = "xyz";
+  for (int d = 0; d < 3; ++d) {
+    const auto& x = nodes_[static_cast<std::size_t>(d)];
+    std::ostringstream msg;
+    if (x.size() < 2) {
+      msg << "rectilinear grid axis " << axis[d] << " has " << x.size()
+          << " node coordinates; give at least 2 (one cell has a lower and an upper node)";
+      throw Error(VFE_ERROR_INVALID_ARGUMENT, msg.str());
+    }
+    for (std::size_t i = 0; i < x.size(); ++i) {
+      if (!std::isfinite(x[i])) {
+        msg << "rectilinear grid axis " << axis[d] << ": node " << i << " is " << x[i] << "; give finite coordinates";
+        throw Error(VFE_ERROR_INVALID_ARGUMENT, msg.str());
+      }
+      if (i > 0 && !(x[i] > x[i - 1])) {
+        msg << "rectilinear grid axis " << axis[d] << ": node " << i << " (" << x[i] << ") is not greater than node "
+            << i - 1 << " (" << x[i - 1] << "); give strictly increasing coordinates";
+        throw Error(VFE_ERROR_INVALID_ARGUMENT, msg.str());
+      }
+    }
+    n_[static_cast<std::size_t>(d)] = static_cast<std::int64_t>(x.size()) - 1;
+  }
+  const double total = double(n_[0]) * double(n_[1]) * double(n_[2]);
+  if (total > double(std::int64_t(1) << 40)) {
+    std::ostringstream msg;
+    msg << "rectilinear grid of " << n_[0] << " x " << n_[1] << " x " << n_[2] << " cells is too large (limit 2^40 cells); "
+        << "use fewer nodes";
+    throw Error(VFE_ERROR_INVALID_ARGUMENT, msg.str());
+  }
+}
+
+std::int64_t RectilinearGrid::axis_index(int d, double x) const {
+  const auto& nodes = nodes_[static_cast<std::size_t>(d)];
+  // First node greater than x; x_i <= x < x_{i+1} for i = that - 1. NaN compares false
+  // everywhere and lands below the grid.
+  if (!(x >= nodes.front())) return -1;
+  const auto it = std::upper_bound(nodes.begin(), nodes.end(), x);
+  return static_cast<std::int64_t>(it - nodes.begin()) - 1;
+}
+
+std::int64_t RectilinearGrid::locate(const Eigen::Vector3d& p) const {
+  std::int64_t ijk[3];
+  for (int d = 0; d < 3; ++d) {
+    ijk[d] = axis_index(d, p[d]);
+    if (ijk[d] < 0 || ijk[d] >= n_[static_cast<std::size_t>(d)]) return -1;
+  }
+  return index(ijk[0], ijk[1], ijk[2]);
+}
+
+std::int64_t RectilinearGrid::nearest(const Eigen::Vector3d& p) const {
+  std::int64_t ijk[3];
+  for (int d = 0; d < 3; ++d) ijk[d] = std::clamp<std::int64_t>(axis_index(d, p[d]), 0, n_[static_cast<std::size_t>(d)] - 1);
+  return index(ijk[0], ijk[1], ijk[2]);
+}
+
+double RectilinearGrid::cell_volume(std::int64_t c) const {
+  const auto [i, j, k] = ijk(c);
+  return (nodes_[0][static_cast<std::size_t>(i) + 1] - nodes_[0][static_cast<std::size_t>(i)]) *
+         (nodes_[1][static_cast<std::size_t>(j) + 1] - nodes_[1][static_cast<std::size_t>(j)]) *
+         (nodes_[2][static_cast<std::size_t>(k) + 1] - nodes_[2][static_cast<std::size_t>(k)]);
+}
+
+Eigen::Vector3d RectilinearGrid::cell_centre(std::int64_t c) const {
+  const auto idx = ijk(c);
+  Eigen::Vector3d centre;
+  for (int d = 0; d < 3; ++d) {
+    const auto i = static_cast<std::size_t>(idx[static_cast<std::size_t>(d)]);
+    centre[d] = 0.5 * (nodes_[static_cast<std::size_t>(d)][i] + nodes_[static_cast<std::size_t>(d)][i + 1]);
+  }
+  return centre;
+}
+
+std::vector<double> RectilinearGrid::cell_volumes() const {
+  std::vector<double> v(static_cast<std::size_t>(cell_count()));
+  for (std::int64_t c = 0; c < cell_count(); ++c) v[static_cast<std::size_t>(c)] = cell_volume(c);
+  return v;
+}
+
+}  // namespace vfe
