@@ -70,6 +70,7 @@ struct Engine::Impl {
   const ParticleTemplate divided = kernels::make_divided_template();
   std::vector<const ParticleTemplate*> bank;  // by (auto step - bank_first)
   std::int64_t bank_first = 0;
+  detail::AutoRule rule;
 
   explicit Impl(const CartesianGridSpec& spec) : grid(spec) {
     log = std::make_shared<spdlog::logger>("vfe", std::make_shared<spdlog::sinks::stderr_sink_mt>());
@@ -86,8 +87,14 @@ struct Engine::Impl {
 
   // --- particle grid ------------------------------------------------------------------
 
-  static std::int64_t auto_steps(double diameter, double cell_volume) {
-    return detail::auto_steps(diameter, cell_volume);
+  /// The auto rule of the current options: the template family's fitted jump model, under
+  /// the flux criterion when the host gave U_s and dt_f, else DESIGN's default criterion.
+  detail::AutoRule auto_rule(double cell_size) const {
+    detail::AutoRule rule;
+    rule.model = fitted_jump_model(opts.template_family == TemplateFamily::spherical ? "spherical" : "fibonacci");
+    if (opts.superficial_velocity > 0 && opts.fluid_dt > 0)
+      rule.criterion = flux_jump_criterion(opts.superficial_velocity, opts.fluid_dt, cell_size);
+    return rule;
   }
 
   const ParticleTemplate& get_template(std::int64_t n) {
@@ -115,9 +122,13 @@ struct Engine::Impl {
       bank.push_back(&get_template(opts.particle_grid));
       return;
     }
-    bank_first = auto_steps(v.d_min, grid.cell_volume());
-    const std::int64_t last = auto_steps(v.d_max, grid.cell_volume());
-    for (std::int64_t k = bank_first; k <= last; ++k) bank.push_back(&get_template(5 * k));
+    if (!(v.d_max > 0)) return;  // no particles
+    rule = auto_rule(grid.cell_size());
+    bank_first = detail::auto_step(v.d_min, grid.cell_volume(), rule);
+    const std::int64_t last = detail::auto_step(v.d_max, grid.cell_volume(), rule);
+    for (std::int64_t k = bank_first; k <= last; ++k) bank.push_back(&get_template(5 * detail::auto_ladder_value(k)));
+    log->info("particle_grid=auto: chi {:.3g} to {:.3g}, {} to {} sub-elements per particle",
+              grid.cell_size() / v.d_max, grid.cell_size() / v.d_min, bank.back()->size(), bank.front()->size());
   }
 
   // --- validation ---------------------------------------------------------------------
@@ -227,7 +238,7 @@ struct Engine::Impl {
     for (Scratch& s : scratch) s.reset_counters();
     work.assign(ncell + 1, 0.0);
 
-    const detail::Context ctx{grid, opts, detail::TemplateBank{bank, bank_first, opts.particle_grid > 0}, divided};
+    const detail::Context ctx{grid, opts, detail::TemplateBank{bank, bank_first, opts.particle_grid > 0, rule}, divided};
     void (*driver)(const detail::Context&, Scratch&, const detail::Particle&) = nullptr;
     switch (opts.method) {
       case Method::direct: driver = detail::direct_particle; break;
@@ -432,7 +443,8 @@ const Report& Engine::last_report() const { return impl_->report; }
 std::int64_t Engine::particle_grid_for(double diameter, double cell_size) const {
   const std::int64_t n = impl_->opts.particle_grid > 0
                              ? impl_->opts.particle_grid
-                             : 5 * Impl::auto_steps(diameter, cell_size * cell_size * cell_size);
+                             : 5 * detail::auto_ladder_value(detail::auto_step(
+                                       diameter, cell_size * cell_size * cell_size, impl_->auto_rule(cell_size)));
   return static_cast<std::int64_t>(impl_->get_template(n).size());
 }
 

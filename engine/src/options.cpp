@@ -16,7 +16,7 @@ namespace {
 
 const char* const kKeys =
     "method, particle_grid, template, orientation, outside, threads, deterministic, alpha_min, "
-    "periodic, accumulation, seed, sigma, gamma, log_level";
+    "periodic, accumulation, seed, sigma, gamma, superficial_velocity, fluid_dt, log_level";
 
 [[noreturn]] void bad(std::string_view key, std::string_view value, std::string_view expected) {
   throw Error(VFE_ERROR_INVALID_ARGUMENT, "option '" + std::string(key) + "': bad value '" +
@@ -134,6 +134,10 @@ void apply(Options& o, std::string_view key, std::string_view v) {
     o.sigma = parse_positive(key, v, 100.0);
   } else if (key == "gamma") {
     o.gamma = parse_positive(key, v, 100.0);
+  } else if (key == "superficial_velocity") {
+    o.superficial_velocity = parse_double(key, v, 0.0, 1e30);
+  } else if (key == "fluid_dt") {
+    o.fluid_dt = parse_double(key, v, 0.0, 1e30);
   } else if (key == "log_level") {
     if (v != "trace" && v != "debug" && v != "info" && v != "warn" && v != "error" && v != "off")
       bad(key, v, "one of trace, debug, info, warn, error, off");
@@ -178,6 +182,8 @@ std::string option_value(const Options& o, std::string_view key) {
   if (key == "alpha_min") return number_text(o.alpha_min);
   if (key == "sigma") return number_text(o.sigma);
   if (key == "gamma") return number_text(o.gamma);
+  if (key == "superficial_velocity") return number_text(o.superficial_velocity);
+  if (key == "fluid_dt") return number_text(o.fluid_dt);
   if (key == "periodic") return "none";
   if (key == "accumulation") return name_of(o.accumulation, kAccumulation);
   if (key == "seed") return std::to_string(o.seed);
@@ -189,7 +195,7 @@ std::string format_options(const Options& o) {
   std::string out;
   for (const char* key : {"method", "particle_grid", "template", "orientation", "outside", "threads",
                           "deterministic", "alpha_min", "periodic", "accumulation", "seed", "sigma", "gamma",
-                          "log_level"}) {
+                          "superficial_velocity", "fluid_dt", "log_level"}) {
     if (!out.empty()) out += ' ';
     out += std::string(key) + "=" + option_value(o, key);
   }

@@ -2,6 +2,7 @@
 // outside policies, bad input.
 #include <vfe/engine.hpp>
 #include <vfe/measures.hpp>
+#include <vfe/stability.hpp>
 
 #include <vfe/kernels/sphere_box_overlap.hpp>
 
@@ -329,11 +330,23 @@ TEST(Engine, VoidFractionAndAlphaMinClipReportsTheClippedVolume) {
   EXPECT_EQ(eps[1], 0.6);
 }
 
-TEST(Engine, AutoParticleGridFollowsTheDefaultCriterion) {
-  // n = 5 * ceil(27 / chi^3), chi = cell size / diameter.
+TEST(Engine, AutoParticleGridFollowsTheFittedStabilityFormula) {
+  // n = 5 n_min(chi) (docs/stability.md), rounded up to the template ladder; more
+  // sub-elements as chi falls; the flux form when the host gives U_s and dt_f.
   Engine e(grid(2.0, 4, 4, 4));
-  EXPECT_EQ(e.particle_grid_for(1.0, 2.0), 20);   // chi = 2: 5 * 4
-  EXPECT_EQ(e.particle_grid_for(2.0 / 3.0, 2.0), 5);  // chi = 3: direct is just stable
-  const std::int64_t chi1 = e.particle_grid_for(2.0, 2.0);  // 5 * 27 = 135
-  EXPECT_NEAR(double(chi1), 135.0, 13.5);
+  std::int64_t previous = 0;
+  for (double chi : {4.0, 3.0, 2.0, 1.5, 1.0, 0.75, 0.5}) {
+    const std::int64_t n = e.particle_grid_for(1.0, chi);
+    const std::int64_t formula = vfe::auto_particle_grid(chi, "fibonacci");
+    EXPECT_GE(n, formula) << chi;
+    EXPECT_LE(double(n), 1.06 * double(formula) + 5) << chi;
+    EXPECT_GE(n, previous) << chi;
+    previous = n;
+  }
+  // A looser flux criterion (U_s dt_f / dx larger than pi/162) needs fewer sub-elements.
+  const std::int64_t strict = e.particle_grid_for(1.0, 1.0);
+  e.configure("superficial_velocity=1 fluid_dt=0.1");  // allows a jump of 0.1 per step at dx = 1
+  EXPECT_LT(e.particle_grid_for(1.0, 1.0), strict);
+  EXPECT_GE(e.particle_grid_for(1.0, 1.0),
+            vfe::auto_particle_grid(1.0, "fibonacci", vfe::flux_jump_criterion(1, 0.1, 1.0)));
 }

@@ -88,10 +88,9 @@ TEST(Stability, AutoIsStableBetweenSweepPoints) {
     const std::int64_t n_auto = probe.particle_grid_for(1.0, chi);
     probe.configure("particle_grid=" + std::to_string(vfe::auto_particle_grid(chi, family)));
     const std::int64_t n_formula = probe.particle_grid_for(1.0, chi);
-    if (n_auto != n_formula)
-      GTEST_SKIP() << "particle_grid=auto gives " << n_auto << " sub-elements at chi=" << chi
-                   << " but 5 n_min(chi) of docs/stability.md is " << n_formula
-                   << "; auto does not use the fitted formula yet";
+    // auto rounds 5 n_min(chi) up to its template ladder (5 % rungs above 100).
+    EXPECT_GE(n_auto, n_formula) << "chi=" << chi;
+    EXPECT_LE(double(n_auto), 1.06 * double(n_formula) + 5) << "chi=" << chi;
     auto o = options(chi, "pmm", 16);
     o.particle_grids = {"auto"};
     const auto r = vfe::stability_test(o).results.at(0);

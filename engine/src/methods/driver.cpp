@@ -5,10 +5,23 @@
 
 namespace vfe::detail {
 
-std::int64_t auto_steps(double diameter, double cell_volume) {
-  const double x = 27.0 * diameter * diameter * diameter / cell_volume;
-  const double k = std::ceil(x * (1.0 - 1e-12));
-  return std::clamp<std::int64_t>(static_cast<std::int64_t>(std::min(k, 1e9)), 1, kMaxAutoGrid / 5);
+namespace {
+constexpr std::int64_t kLadderLinear = 20;
+constexpr double kLadderGrowth = 1.05;
+}  // namespace
+
+std::int64_t auto_ladder_value(std::int64_t step) {
+  if (step <= kLadderLinear) return step;
+  return static_cast<std::int64_t>(std::ceil(kLadderLinear * std::pow(kLadderGrowth, double(step - kLadderLinear)) - 1e-9));
+}
+
+std::int64_t auto_step(double diameter, double cell_volume, const AutoRule& rule) {
+  const double chi = std::cbrt(cell_volume) / diameter;
+  const double n_min = std::min(n_min_model(chi, rule.model, rule.criterion), double(kMaxAutoGrid / 5));
+  const auto k = std::max<std::int64_t>(1, static_cast<std::int64_t>(std::ceil(n_min * (1.0 - 1e-12))));
+  if (k <= kLadderLinear) return k;
+  return kLadderLinear +
+         static_cast<std::int64_t>(std::ceil(std::log(double(k) / kLadderLinear) / std::log(kLadderGrowth) - 1e-9));
 }
 
 Window make_window(const CartesianGrid& grid, const Eigen::Vector3d& c, const Eigen::Vector3d& half) {

@@ -9,6 +9,7 @@
 #include "options.hpp"
 
 #include <vfe/kernels/particle_template.hpp>
+#include <vfe/stability.hpp>
 
 #include <Eigen/Core>
 
@@ -64,18 +65,29 @@ struct Particle {
   const double* orientation;  ///< quaternion (w, x, y, z) or null
 };
 
+/// particle_grid=auto: n = 5 * n_min(chi) with n_min from the stress test's fitted jump
+/// model (docs/stability.md) under a jump criterion (DESIGN's default or the flux form).
+struct AutoRule {
+  JumpModel model;
+  double criterion = kDefaultJumpCriterion;
+};
+
+/// Largest particle grid `auto` may choose.
+inline constexpr std::int64_t kMaxAutoGrid = 5 * 27 * 1000;
+
+/// Auto step of a particle: the template ladder's index of ceil(n_min(chi)), where the
+/// ladder is 1, 2, ..., 20 and then grows by 5 % a rung (so a polydisperse bed needs few
+/// templates). particle_grid = 5 * auto_ladder_value(step).
+std::int64_t auto_step(double diameter, double cell_volume, const AutoRule& rule);
+std::int64_t auto_ladder_value(std::int64_t step);
+
 /// PMM's templates for this compute: one fixed size, or one per auto step.
 struct TemplateBank {
   std::span<const kernels::ParticleTemplate* const> templates;
   std::int64_t first_step = 0;  ///< auto step of templates[0]
   bool fixed = false;           ///< particle_grid given: templates[0] for every particle
+  AutoRule rule;
 };
-
-/// Auto step k of a particle of this diameter: particle_grid = 5 k, k = ceil(27 / chi^3)
-/// (DESIGN section 5's default criterion), clamped to [1, kMaxAutoGrid / 5].
-std::int64_t auto_steps(double diameter, double cell_volume);
-/// Largest particle grid `auto` may choose (a particle 8x larger than its cell).
-inline constexpr std::int64_t kMaxAutoGrid = 5 * 27 * 512;
 
 /// What a driver reads during one compute (never writes).
 struct Context {
@@ -85,8 +97,8 @@ struct Context {
   const kernels::ParticleTemplate& divided;  ///< the divided method's 29 points
 
   const kernels::ParticleTemplate& template_for(double diameter) const {
-    if (bank.fixed) return *bank.templates.front();
-    return *bank.templates[static_cast<std::size_t>(auto_steps(diameter, grid.cell_volume()) - bank.first_step)];
+    if (bank.templates.size() == 1) return *bank.templates.front();
+    return *bank.templates[static_cast<std::size_t>(auto_step(diameter, grid.cell_volume(), bank.rule) - bank.first_step)];
   }
 };
 
