@@ -175,6 +175,37 @@ ParticleTemplate make_voxel_template(int n) {
   return t;
 }
 
+// Built for AVX2 + FMA as well as the baseline; the loader picks the one the CPU runs.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(__SANITIZE_ADDRESS__)
+__attribute__((target_clones("arch=x86-64-v3", "default")))
+#endif
+void locate_in_block(const ParticleTemplate& tmpl, const Eigen::Vector3d& base, const Eigen::Matrix3d& transform,
+                     const std::int64_t m[3], std::int32_t* out) {
+  const std::size_t n = tmpl.points.size();
+  const double* q = tmpl.points.data()->data();
+  const double b0 = base[0], b1 = base[1], b2 = base[2];
+  const double t00 = transform(0, 0), t01 = transform(0, 1), t02 = transform(0, 2);
+  const double t10 = transform(1, 0), t11 = transform(1, 1), t12 = transform(1, 2);
+  const double t20 = transform(2, 0), t21 = transform(2, 1), t22 = transform(2, 2);
+  // Clamp in floating point first (to [0, m - 0.5]); truncation then equals floor. The
+  // comparisons are written as x86's max/min so they compile to maxpd/minpd.
+  const double h0 = double(m[0]) - 0.5, h1 = double(m[1]) - 0.5, h2 = double(m[2]) - 0.5;
+  const std::int32_t m0 = static_cast<std::int32_t>(m[0]), m01 = static_cast<std::int32_t>(m[0] * m[1]);
+  for (std::size_t s = 0; s < n; ++s) {
+    const double x = q[3 * s], y = q[3 * s + 1], z = q[3 * s + 2];
+    double u = b0 + t00 * x + t01 * y + t02 * z;
+    double v = b1 + t10 * x + t11 * y + t12 * z;
+    double w = b2 + t20 * x + t21 * y + t22 * z;
+    u = u > 0.0 ? u : 0.0;
+    v = v > 0.0 ? v : 0.0;
+    w = w > 0.0 ? w : 0.0;
+    u = u < h0 ? u : h0;
+    v = v < h1 ? v : h1;
+    w = w < h2 ? w : h2;
+    out[s] = static_cast<std::int32_t>(u) + m0 * static_cast<std::int32_t>(v) + m01 * static_cast<std::int32_t>(w);
+  }
+}
+
 Eigen::Matrix3d random_rotation(std::uint64_t index, std::uint64_t seed) {
   // splitmix64 stream keyed by (index, seed): stateless, so any thread computes the
   // same rotation for a particle.

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <string>
 
 namespace vfe::detail {
 
@@ -118,18 +119,23 @@ void deposit_points(const Context& ctx, Scratch& s, const Particle& p, const ker
     outside(ctx, s, p, p.volume, grid.nearest(c), flagged, policy);
     return;
   }
-  s.window.assign(w.size(), 0.0);
-  const std::int64_t m0 = w.m[0], m1 = w.m[1], m2 = w.m[2];
-  kernels::pmm_deposit(
-      t, base, to_cells, p.volume,
-      [m0, m1, m2](const Eigen::Vector3d& x) {
-        // Truncation equals floor after the clamp at 0 (x > -2^40 here).
-        const std::int64_t i = std::clamp<std::int64_t>(static_cast<std::int64_t>(x[0]), 0, m0 - 1);
-        const std::int64_t j = std::clamp<std::int64_t>(static_cast<std::int64_t>(x[1]), 0, m1 - 1);
-        const std::int64_t k = std::clamp<std::int64_t>(static_cast<std::int64_t>(x[2]), 0, m2 - 1);
-        return i + m0 * (j + m1 * k);
-      },
-      [&s](std::int64_t local, const Eigen::Vector3d&, double v) { s.window[local] += v; });
+  if (w.size() > (std::size_t(1) << 26))
+    throw Error(VFE_ERROR_INVALID_ARGUMENT,
+                "particle " + std::to_string(p.index) + " spans " + std::to_string(w.size()) +
+                    " cells (more than 2^26); use cells no smaller than about 1/400 of the particle diameter");
+  const std::size_t n = t.size(), cells = w.size();
+  s.local_cells.resize(n);
+  kernels::locate_in_block(t, base, to_cells, w.m, s.local_cells.data());
+  // Four interleaved partial sums per cell: consecutive sub-elements often hit the same
+  // cell, and one sum would chain every add through memory.
+  s.lanes.assign(4 * cells, 0.0);
+  const double* f = t.fractions.data();
+  const std::int32_t* cell = s.local_cells.data();
+  double* lanes = s.lanes.data();
+  for (std::size_t q = 0; q < n; ++q) lanes[4 * std::size_t(cell[q]) + (q & 3)] += f[q];
+  s.window.resize(cells);
+  for (std::size_t c = 0; c < cells; ++c)
+    s.window[c] = p.volume * ((lanes[4 * c] + lanes[4 * c + 1]) + (lanes[4 * c + 2] + lanes[4 * c + 3]));
   emit_window(ctx, s, p, w, policy);
 }
 

@@ -30,6 +30,8 @@ struct Scratch {
   std::vector<Deposit> deposits;                 // one particle's deposits, merged by cell
   std::vector<double> nodes[3], orthant, patch;  // exact method
   std::vector<double> window;                    // volume per cell of the particle's window
+  std::vector<std::int32_t> local_cells;         // pmm: window cell of each sub-element
+  std::vector<double> lanes;                     // pmm: four partial sums per window cell
   std::vector<double> axis[3];                   // separable methods: weights per axis
   std::int64_t fast_path = 0, sub_elements = 0, outside_particles = 0;
   std::int64_t first_error = std::numeric_limits<std::int64_t>::max();

@@ -100,7 +100,7 @@ bool is_delimiter(char c) {
 /// and raw binary blocks. Every failure names the file and the line (or byte).
 class FoamText {
  public:
-  FoamText(FileText file) : path_(std::move(file.path)), text_(std::move(file.text)) { parse_header(); }
+  explicit FoamText(FileText file) : path_(std::move(file.path)), text_(std::move(file.text)) { parse_header(); }
 
   bool binary() const { return binary_; }
   std::size_t label_bytes() const { return label_bytes_; }

@@ -55,6 +55,13 @@ inline Eigen::Matrix3d rotation_from_quaternion(const double* q) {
   return Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized().toRotationMatrix();
 }
 
+/// PMM's locate step for one particle on a block of cells: template point q maps to
+/// x = base + transform * q in cell units relative to the block, and lands in block cell
+/// clamp(floor(x_d), 0, m_d - 1) per axis; out[s] = i + m0 * (j + m1 * k). Requires
+/// x_d > -2^31 (the caller keeps base small). Branch-free so the compiler vectorises it.
+void locate_in_block(const ParticleTemplate& tmpl, const Eigen::Vector3d& base, const Eigen::Matrix3d& transform,
+                     const std::int64_t m[3], std::int32_t* out);
+
 /// PMM kernel for one particle: every sub-element's volume goes to the cell that holds
 /// its centroid. `transform` maps template points (unit sphere) to space: the rotation
 /// scaled by the radius. locate(point) -> cell (any integer type; the sink interprets
