@@ -138,17 +138,28 @@ const char* vfe_last_error(const vfe_engine* e) { return e ? e->last_error.c_str
 
 vfe_status vfe_add_shape(vfe_engine* e, const char* spec, int32_t* shape_id) {
   if (!e) return null_argument(g_creation_error, "engine");
-  (void)shape_id;
-  e->last_error = std::string("shapes are not available in this version (asked for '") + (spec ? spec : "") +
-                  "'); use vfe_compute with spheres";
-  return VFE_ERROR_UNSUPPORTED;
+  if (!spec) return null_argument(e->last_error, "spec");
+  if (!shape_id) return null_argument(e->last_error, "shape_id");
+  std::int32_t id = -1;
+  const vfe_status s = guarded(e->last_error, [&] { id = e->engine->add_shape(spec); });
+  if (s == VFE_OK) *shape_id = id;
+  return s;
 }
 
-vfe_status vfe_compute_shapes(vfe_engine* e, int64_t, const double*, const double*, const double*,
-                              const int32_t*, double*) {
+vfe_status vfe_compute_shapes(vfe_engine* e, int64_t n, const double* centres, const double* scales,
+                              const double* orientations, const int32_t* shape_ids, double* solid_volume) {
   if (!e) return null_argument(g_creation_error, "engine");
-  e->last_error = "shapes are not available in this version; use vfe_compute with spheres";
-  return VFE_ERROR_UNSUPPORTED;
+  if (!solid_volume) return null_argument(e->last_error, "solid_volume");
+  if (n > 0 && !shape_ids) return null_argument(e->last_error, "shape_ids");
+  return guarded(e->last_error, [&] {
+    vfe::ParticleView view;
+    view.n = n;
+    view.centres = centres;
+    view.radii = scales;
+    view.orientations = orientations;
+    view.shape_ids = shape_ids;
+    e->engine->compute(view, std::span<double>(solid_volume, e->engine->cell_count()));
+  });
 }
 
 vfe_status vfe_last_report(const vfe_engine* e, vfe_report* out) {

@@ -5,6 +5,7 @@
 #include "cartesian_grid.hpp"
 #include "methods/driver.hpp"
 #include "options.hpp"
+#include "shape_spec.hpp"
 
 #include <vfe/kernels/divided.hpp>
 #include <vfe/kernels/particle_template.hpp>
@@ -72,6 +73,65 @@ struct Engine::Impl {
   std::int64_t bank_first = 0;
   detail::AutoRule rule;
 
+  /// A shape registered with add_shape, and its templates for the current compute.
+  struct RegisteredShape {
+    kernels::Shape shape;
+    bool is_sphere = false;
+    double eq_diameter = 0;  ///< diameter of the sphere of equal volume, at scale 1
+    const ParticleTemplate* tmpl = nullptr;  ///< pmm's template for this compute
+    double scale_min = 0, scale_max = 0;
+    std::vector<Eigen::Vector3d> samples;  ///< taken once, cut anew for each template size
+  };
+  std::vector<RegisteredShape> shapes;
+  std::map<std::pair<std::int32_t, std::int64_t>, std::unique_ptr<ParticleTemplate>> shape_templates;
+
+  const ParticleTemplate& shape_template(std::int32_t id, std::int64_t n) {
+    auto& slot = shape_templates[{id, n}];
+    if (!slot) {
+      RegisteredShape& sh = shapes[id];
+      const bool analytic = sh.shape.kind() == kernels::Shape::Kind::ellipsoid;
+      if (!analytic && sh.samples.empty()) sh.samples = kernels::sample_shape(sh.shape, 1000000).points;
+      slot = std::make_unique<ParticleTemplate>(analytic ? kernels::make_shape_template(sh.shape, static_cast<int>(n))
+                                                         : kernels::make_shape_template(sh.shape, static_cast<int>(n), sh.samples));
+      log->info("built template of {} sub-elements for shape {} ({})", slot->size(), id, shapes[id].shape.description());
+    }
+    return *slot;
+  }
+
+  /// Templates of the non-spherical shapes this compute uses; rejects methods that
+  /// cannot represent a shape.
+  void prepare_shapes(const ParticleView& pv, std::int64_t rs) {
+    if (!pv.shape_ids) return;
+    for (auto& sh : shapes) sh.scale_min = sh.scale_max = 0;
+    for (std::int64_t p = 0; p < pv.n; ++p) {
+      RegisteredShape& sh = shapes[pv.shape_ids[p]];
+      const double scale = pv.radii[p * rs];
+      sh.scale_min = sh.scale_max == 0 ? scale : std::min(sh.scale_min, scale);
+      sh.scale_max = std::max(sh.scale_max, scale);
+    }
+    const detail::AutoRule shape_rule = auto_rule(grid.cell_size());
+    for (std::int32_t id = 0; id < static_cast<std::int32_t>(shapes.size()); ++id) {
+      RegisteredShape& sh = shapes[id];
+      sh.tmpl = nullptr;
+      if (sh.is_sphere || sh.scale_max == 0) continue;
+      if (opts.method != Method::pmm && opts.method != Method::direct)
+        throw Error(VFE_ERROR_UNSUPPORTED,
+                    "method=" + std::string(to_string(opts.method)) + " handles spheres only, but shape " +
+                        std::to_string(id) + " is a " + sh.shape.description() +
+                        "; use method=pmm (a large particle_grid serves as the reference) or direct");
+      if (opts.method == Method::direct) continue;
+      if (opts.particle_grid > 0) {
+        sh.tmpl = &shape_template(id, opts.particle_grid);
+        continue;
+      }
+      // One template per shape, sized for its largest particles (the smallest chi, the
+      // most sub-elements): shape templates are costly to cut, so none per size step.
+      const std::int64_t k = detail::auto_step(sh.eq_diameter * sh.scale_max, grid.cell_volume(), shape_rule);
+      sh.tmpl = &shape_template(id, 5 * detail::auto_ladder_value(k));
+    }
+  }
+
+
   explicit Impl(const CartesianGridSpec& spec) : grid(spec) {
     log = std::make_shared<spdlog::logger>("vfe", std::make_shared<spdlog::sinks::stderr_sink_mt>());
     log->set_level(spdlog::level::warn);
@@ -135,11 +195,13 @@ struct Engine::Impl {
 
   Validation validate(const ParticleView& pv, std::int64_t cs, std::int64_t rs, std::int64_t qs) {
     const bool need_q = opts.orientation == Orientation::given;
+    const std::int32_t nshapes = static_cast<std::int32_t>(shapes.size());
     auto bad_particle = [&](std::int64_t p) {
       const double* c = pv.centres + p * cs;
       const double r = pv.radii[p * rs];
       if (!std::isfinite(c[0]) || !std::isfinite(c[1]) || !std::isfinite(c[2])) return true;
       if (!(r > 0) || !std::isfinite(r)) return true;
+      if (pv.shape_ids && (pv.shape_ids[p] < 0 || pv.shape_ids[p] >= nshapes)) return true;
       if (need_q) {
         const double* q = pv.orientations + p * qs;
         const double nn = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
@@ -157,6 +219,10 @@ struct Engine::Impl {
                 continue;
               }
               const double rad = pv.radii[p * rs];
+              if (pv.shape_ids && !shapes[pv.shape_ids[p]].is_sphere) {
+                acc.volume += shapes[pv.shape_ids[p]].shape.volume() * rad * rad * rad;
+                continue;  // shaped particles' templates are chosen per shape
+              }
               acc.volume += sphere_volume(rad);
               acc.d_min = std::min(acc.d_min, 2 * rad);
               acc.d_max = std::max(acc.d_max, 2 * rad);
@@ -182,7 +248,11 @@ struct Engine::Impl {
         msg << "centre (" << c[0] << ", " << c[1] << ", " << c[2]
             << ") is not finite; pass finite positions (check the host's particle data)";
       else if (!(pv.radii[p * rs] > 0) || !std::isfinite(pv.radii[p * rs]))
-        msg << "radius " << pv.radii[p * rs] << " is not a finite number > 0; pass positive radii";
+        msg << (pv.shape_ids ? "scale " : "radius ") << pv.radii[p * rs]
+            << " is not a finite number > 0; pass positive " << (pv.shape_ids ? "scales" : "radii");
+      else if (pv.shape_ids && (pv.shape_ids[p] < 0 || pv.shape_ids[p] >= static_cast<std::int32_t>(shapes.size())))
+        msg << "shape id " << pv.shape_ids[p] << " is not registered (" << shapes.size()
+            << " shapes); register shapes with vfe_add_shape first";
       else
         msg << "orientation quaternion is zero or not finite; pass unit quaternions (w, x, y, z) "
                "or use orientation=random";
@@ -232,6 +302,7 @@ struct Engine::Impl {
 
     const Validation v = validate(pv, cs, rs, qs);
     prepare_templates(v);
+    prepare_shapes(pv, rs);
     const Accumulation acc = strategy(pv.n);
     log->debug("compute: {} particles, method={}, accumulation={}", pv.n, to_string(opts.method), int(acc));
 
@@ -250,10 +321,19 @@ struct Engine::Impl {
       case Method::big_particle: driver = detail::big_particle_particle; break;
       case Method::trilinear: driver = detail::trilinear_particle; break;
     }
+    const bool shape_direct = opts.method == Method::direct;
     auto particle = [&](Scratch& s, std::int64_t p) {
       s.deposits.clear();
       const double* cp = pv.centres + p * cs;
       const double r = pv.radii[p * rs];
+      if (pv.shape_ids && !shapes[pv.shape_ids[p]].is_sphere) {
+        const RegisteredShape& sh = shapes[pv.shape_ids[p]];
+        const detail::Particle shaped{p, Eigen::Vector3d(cp[0], cp[1], cp[2]), r, sh.shape.volume() * r * r * r,
+                                      pv.orientations ? pv.orientations + p * qs : nullptr};
+        detail::shape_particle(ctx, s, shaped, shape_direct ? nullptr : sh.tmpl,
+                               sh.shape.centroid());
+        return;
+      }
       const detail::Particle particle{p, Eigen::Vector3d(cp[0], cp[1], cp[2]), r,
                                       4.0 / 3.0 * std::numbers::pi * r * r * r,
                                       pv.orientations ? pv.orientations + p * qs : nullptr};
@@ -439,6 +519,20 @@ void Engine::void_fraction(std::span<double> out) const {
 }
 
 const Report& Engine::last_report() const { return impl_->report; }
+
+std::int32_t Engine::add_shape(std::string_view spec) {
+  Impl::RegisteredShape sh{parse_shape_spec(spec), false, 0, nullptr, 0, 0, {}};
+  sh.is_sphere = sh.shape.kind() == kernels::Shape::Kind::sphere;
+  sh.eq_diameter = std::cbrt(6.0 * sh.shape.volume() / std::numbers::pi);
+  impl_->shapes.push_back(std::move(sh));
+  return static_cast<std::int32_t>(impl_->shapes.size() - 1);
+}
+
+double Engine::shape_volume(std::int32_t id) const {
+  if (id < 0 || id >= static_cast<std::int32_t>(impl_->shapes.size()))
+    throw Error(VFE_ERROR_INVALID_ARGUMENT, "shape id " + std::to_string(id) + " is not registered");
+  return impl_->shapes[id].shape.volume();
+}
 
 std::int64_t Engine::particle_grid_for(double diameter, double cell_size) const {
   const std::int64_t n = impl_->opts.particle_grid > 0

@@ -404,16 +404,22 @@ ParticleTemplate make_shape_template(const Shape& shape, int n) {
     t.family = "ellipsoid";
     return t;
   }
-  // At least ~400 samples per sub-element, and never fewer than 200k in all.
-  SampledBody s = sample_shape(shape, std::max<std::size_t>(200000, std::size_t(400) * std::size_t(n)));
+  // At least ~400 samples per sub-element, 200k to 4M in all.
+  const std::size_t target = std::clamp<std::size_t>(std::size_t(400) * std::size_t(n), 200000, 4000000);
+  return make_shape_template(shape, n, sample_shape(shape, target).points);
+}
+
+ParticleTemplate make_shape_template(const Shape& shape, int n, std::vector<Eigen::Vector3d> samples) {
+  n = std::max(n, 1);
+  if (shape.kind() == Shape::Kind::sphere || shape.kind() == Shape::Kind::ellipsoid) return make_shape_template(shape, n);
   ParticleTemplate t;
   t.family = "shape";
-  if (s.points.empty()) {
+  if (samples.empty()) {
     t.points.push_back(shape.centroid());
     t.fractions.push_back(1.0);
   } else {
-    const int parts = std::min<int>(n, static_cast<int>(s.points.size()));
-    bisect(s.points, 0, s.points.size(), parts, double(s.points.size()), t);
+    const int parts = static_cast<int>(std::min<std::size_t>(std::size_t(n), std::max<std::size_t>(1, samples.size() / 20)));
+    bisect(samples, 0, samples.size(), parts, double(samples.size()), t);
   }
   // Move the template's centre of volume onto the exact centroid.
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();

@@ -130,6 +130,27 @@ int main(void) {
   CHECK(vfe_cell_count(NULL) == -1, "NULL engine count");
   CHECK(vfe_configure(NULL, "method=pmm") == VFE_ERROR_INVALID_ARGUMENT, "NULL engine configure");
 
+  /* Shapes: an ellipsoid and the unit sphere, scaled. */
+  {
+    int32_t ell = -1, sph = -1, ids[2];
+    double sc[2] = {0.001, 0.0005}, ctr[6] = {0.004, 0.004, 0.004, 0.003, 0.005, 0.004};
+    CHECK(vfe_configure(e, "method=pmm outside=nearest") == VFE_OK, "pmm: %s", vfe_last_error(e));
+    CHECK(vfe_add_shape(e, "ellipsoid 1 0.5 0.5", &ell) == VFE_OK, "ellipsoid: %s", vfe_last_error(e));
+    CHECK(vfe_add_shape(e, "sphere", &sph) == VFE_OK && sph != ell, "sphere: %s", vfe_last_error(e));
+    CHECK(vfe_add_shape(e, "blob 1", &sph) == VFE_ERROR_INVALID_ARGUMENT, "bad spec");
+    ids[0] = ell;
+    ids[1] = sph;
+    s = vfe_compute_shapes(e, 2, ctr, sc, NULL, ids, solid);
+    CHECK(s == VFE_OK, "compute_shapes: %s", vfe_last_error(e));
+    expected = 4.0 / 3.0 * kPi * (0.25e-9 + 0.125e-9);
+    total = 0;
+    for (c = 0; c < nc; ++c) total += solid[c];
+    CHECK(fabs(total - expected) < 1e-12 * expected, "shapes conserve volume: %g vs %g", total, expected);
+    ids[0] = 9;
+    CHECK(vfe_compute_shapes(e, 2, ctr, sc, NULL, ids, solid) == VFE_ERROR_INVALID_ARGUMENT, "bad id");
+    CHECK(vfe_compute_shapes(e, 2, ctr, sc, NULL, NULL, solid) == VFE_ERROR_INVALID_ARGUMENT, "NULL ids");
+  }
+
   vfe_destroy(e);
   vfe_destroy(NULL);
   free(solid);

@@ -41,6 +41,9 @@ struct ParticleView {
   const double* centres = nullptr;
   const double* radii = nullptr;
   const double* orientations = nullptr;
+  /// Optional shape per particle (ids from Engine::add_shape); with shapes, radii are
+  /// the shapes' scales lambda (lengths multiply by lambda, volumes by lambda^3).
+  const std::int32_t* shape_ids = nullptr;
   std::int64_t centre_stride = 0;
   std::int64_t radius_stride = 0;
   std::int64_t orientation_stride = 0;
@@ -77,6 +80,12 @@ class Engine {
   /// Sub-elements per particle that particle_grid resolves to for a particle of the
   /// given diameter in a cell of the given size (the template's actual size).
   std::int64_t particle_grid_for(double diameter, double cell_size) const;
+
+  /// Registers a shape from a spec ("sphere" | "ellipsoid A B C" | "superquadric A B C E1 E2"
+  /// | "clump x y z r; ..." | "mesh FILE"); returns its id. Throws Error.
+  std::int32_t add_shape(std::string_view spec);
+  /// Volume of a registered shape in its template units (scale 1).
+  double shape_volume(std::int32_t id) const;
 
  private:
   struct Impl;

@@ -78,7 +78,13 @@ VFE_API vfe_status vfe_void_fraction(const vfe_engine* e, double* out);
  *  creation in this thread. Valid until the next call on e. */
 VFE_API const char* vfe_last_error(const vfe_engine* e);
 
-/** Non-spherical particles (not yet supported: VFE_ERROR_UNSUPPORTED). */
+/** Non-spherical particles: register a shape once, then pass per-particle shape ids.
+ *  A shape is given in its own template units; scale (lambda) multiplies its lengths, so
+ *  its volume scales by lambda^3; the particle's position is the shape's origin. "sphere"
+ *  is the unit-radius sphere (scale = radius). spec: "sphere" | "ellipsoid A B C" (semi-axes)
+ *  | "superquadric A B C E1 E2" | "clump x y z r; x y z r; ..." | "mesh FILE" (closed
+ *  triangle mesh, STL ASCII/binary or OBJ). Methods: pmm and direct for every shape; the
+ *  others for spheres only (VFE_ERROR_UNSUPPORTED otherwise). */
 VFE_API vfe_status vfe_add_shape(vfe_engine* e, const char* spec, int32_t* shape_id);
 VFE_API vfe_status vfe_compute_shapes(vfe_engine* e, int64_t n, const double* centres,
                                       const double* scales, const double* orientations,

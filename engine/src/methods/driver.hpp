@@ -138,6 +138,14 @@ void emit_window(const Context& ctx, Scratch& s, const Particle& p, const Window
 void deposit_points(const Context& ctx, Scratch& s, const Particle& p, const kernels::ParticleTemplate& t,
                     const Eigen::Matrix3d& transform, Outside policy);
 
+/// The rotation of particle p's template under the orientation option.
+Eigen::Matrix3d particle_rotation(const Context& ctx, const Particle& p);
+
+/// A non-spherical particle (radius = its shape's scale): pmm deposits the shape's
+/// template t; with t null (direct) everything goes to the cell holding the centroid.
+void shape_particle(const Context& ctx, Scratch& s, const Particle& p, const kernels::ParticleTemplate* t,
+                    const Eigen::Vector3d& centroid);
+
 // One function per method: the particle's deposits into s (s.deposits is empty on entry).
 void direct_particle(const Context& ctx, Scratch& s, const Particle& p);
 void pmm_particle(const Context& ctx, Scratch& s, const Particle& p);

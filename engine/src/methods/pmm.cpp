@@ -16,12 +16,41 @@ void pmm_particle(const Context& ctx, Scratch& s, const Particle& p) {
     return;
   }
   s.sub_elements += n;
-  Eigen::Matrix3d rotation;
+  deposit_points(ctx, s, p, t, particle_rotation(ctx, p), ctx.opts.outside);
+}
+
+Eigen::Matrix3d particle_rotation(const Context& ctx, const Particle& p) {
   switch (ctx.opts.orientation) {
-    case Orientation::none: rotation.setIdentity(); break;
-    case Orientation::random: rotation = kernels::random_rotation(std::uint64_t(p.index), ctx.opts.seed); break;
-    case Orientation::given: rotation = kernels::rotation_from_quaternion(p.orientation); break;
+    case Orientation::none: break;
+    case Orientation::random: return kernels::random_rotation(std::uint64_t(p.index), ctx.opts.seed);
+    case Orientation::given: return kernels::rotation_from_quaternion(p.orientation);
   }
+  return Eigen::Matrix3d::Identity();
+}
+
+void shape_particle(const Context& ctx, Scratch& s, const Particle& p, const kernels::ParticleTemplate* tmpl,
+                    const Eigen::Vector3d& centroid) {
+  const Eigen::Matrix3d rotation = particle_rotation(ctx, p);
+  if (!tmpl) {
+    const Eigen::Vector3d at = p.centre + p.radius * (rotation * centroid);
+    ++s.sub_elements;
+    bool flagged = false;
+    if (const std::int64_t cell = ctx.grid.locate(at); cell >= 0)
+      s.add(cell, p.volume);
+    else
+      outside(ctx, s, p, p.volume, ctx.grid.nearest(at), flagged, ctx.opts.outside);
+    return;
+  }
+  const kernels::ParticleTemplate& t = *tmpl;
+  const std::int64_t n = static_cast<std::int64_t>(t.size());
+  s.count_grid(n);
+  if (const std::int64_t cell = single_cell(ctx.grid, p.centre, Eigen::Vector3d::Constant(p.radius * t.reach));
+      cell >= 0) {
+    ++s.fast_path;
+    s.add(cell, p.volume);
+    return;
+  }
+  s.sub_elements += n;
   deposit_points(ctx, s, p, t, rotation, ctx.opts.outside);
 }
 

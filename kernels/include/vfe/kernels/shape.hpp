@@ -102,4 +102,8 @@ SampledBody sample_shape(const Shape& shape, std::size_t target);
 /// the template's centre of volume is moved onto the exact centroid.
 ParticleTemplate make_shape_template(const Shape& shape, int n);
 
+/// The same from samples of the shape taken once (sample_shape; the cut reorders them, so
+/// they are taken by value). n is capped at a twentieth of the samples.
+ParticleTemplate make_shape_template(const Shape& shape, int n, std::vector<Eigen::Vector3d> samples);
+
 }  // namespace vfe::kernels
