@@ -91,9 +91,14 @@ vfe_status vfe_create_cartesian(const double origin[3], const double spacing[3],
 vfe_status vfe_create_polymesh(const char* polymesh_dir, vfe_engine** out) {
   if (!out) return null_argument(g_creation_error, "out");
   if (!polymesh_dir) return null_argument(g_creation_error, "polymesh_dir");
-  g_creation_error = std::string("OpenFOAM polyMesh engines are not available in this version (asked for '") +
-                     polymesh_dir + "'); use vfe_create_cartesian";
-  return VFE_ERROR_UNSUPPORTED;
+  vfe_engine* created = nullptr;
+  const vfe_status s = guarded(g_creation_error, [&] {
+    auto e = std::make_unique<vfe_engine>();
+    e->engine = std::make_unique<vfe::Engine>(vfe::PolyMeshSpec{polymesh_dir});
+    created = e.release();
+  });
+  if (s == VFE_OK) *out = created;
+  return s;
 }
 
 void vfe_destroy(vfe_engine* e) { delete e; }

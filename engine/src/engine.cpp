@@ -6,6 +6,7 @@
 #include "methods/driver.hpp"
 #include "options.hpp"
 #include "shape_spec.hpp"
+#include "methods/polymesh.hpp"
 
 #include <vfe/kernels/divided.hpp>
 #include <vfe/kernels/particle_template.hpp>
@@ -109,7 +110,7 @@ struct Engine::Impl {
       sh.scale_min = sh.scale_max == 0 ? scale : std::min(sh.scale_min, scale);
       sh.scale_max = std::max(sh.scale_max, scale);
     }
-    const detail::AutoRule shape_rule = auto_rule(grid.cell_size());
+    const detail::AutoRule shape_rule = auto_rule(std::cbrt(smallest_cell_volume()));
     for (std::int32_t id = 0; id < static_cast<std::int32_t>(shapes.size()); ++id) {
       RegisteredShape& sh = shapes[id];
       sh.tmpl = nullptr;
@@ -126,20 +127,50 @@ struct Engine::Impl {
       }
       // One template per shape, sized for its largest particles (the smallest chi, the
       // most sub-elements): shape templates are costly to cut, so none per size step.
-      const std::int64_t k = detail::auto_step(sh.eq_diameter * sh.scale_max, grid.cell_volume(), shape_rule);
+      const std::int64_t k = detail::auto_step(sh.eq_diameter * sh.scale_max, smallest_cell_volume(), shape_rule);
       sh.tmpl = &shape_template(id, 5 * detail::auto_ladder_value(k));
     }
   }
 
 
-  explicit Impl(const CartesianGridSpec& spec) : grid(spec) {
+  // --- the mesh: a Cartesian grid, or a polyMesh with its locator -------------------
+  std::unique_ptr<PolyMesh> poly;
+  std::unique_ptr<CellLocator> locator;
+  double poly_vmin = 0, poly_vmax = 0;  // smallest and largest cell volume
+
+  explicit Impl(const CartesianGridSpec& spec) : grid(spec) { init(); }
+
+  /// polyMesh engine; `grid` is then only the bounding box (never used to locate).
+  explicit Impl(std::unique_ptr<PolyMesh> mesh) : grid(bounding_grid(*mesh)), poly(std::move(mesh)) {
+    locator = std::make_unique<CellLocator>(*poly);
+    const auto v = poly->cell_volumes();
+    poly_vmin = *std::min_element(v.begin(), v.end());
+    poly_vmax = *std::max_element(v.begin(), v.end());
+    init();
+  }
+
+  static CartesianGridSpec bounding_grid(const PolyMesh& mesh) {
+    CartesianGridSpec g;
+    for (int d = 0; d < 3; ++d) {
+      g.origin[d] = mesh.bounds().min()[d];
+      g.spacing[d] = std::max(mesh.bounds().sizes()[d], 1e-300);
+    }
+    return g;
+  }
+
+  void init() {
     log = std::make_shared<spdlog::logger>("vfe", std::make_shared<spdlog::sinks::stderr_sink_mt>());
     log->set_level(spdlog::level::warn);
     make_arena();
-    solid.reserve(grid.cell_count() + 1);
-    work.reserve(grid.cell_count() + 1);
-    solid.assign(grid.cell_count(), 0.0);
+    solid.reserve(ncells() + 1);
+    work.reserve(ncells() + 1);
+    solid.assign(ncells(), 0.0);
   }
+
+  std::int64_t ncells() const { return poly ? poly->cell_count() : grid.cell_count(); }
+  double cell_volume(std::int64_t c) const { return poly ? poly->cell_volume(c) : grid.cell_volume(); }
+  /// The smallest cell volume: the most sub-elements auto may need.
+  double smallest_cell_volume() const { return poly ? poly_vmin : grid.cell_volume(); }
 
   void make_arena() {
     arena = std::make_unique<tbb::task_arena>(opts.threads > 0 ? opts.threads : +tbb::task_arena::automatic);
@@ -183,12 +214,15 @@ struct Engine::Impl {
       return;
     }
     if (!(v.d_max > 0)) return;  // no particles
-    rule = auto_rule(grid.cell_size());
-    bank_first = detail::auto_step(v.d_min, grid.cell_volume(), rule);
-    const std::int64_t last = detail::auto_step(v.d_max, grid.cell_volume(), rule);
+    // On a polyMesh: from the largest cell for the smallest particle to the smallest cell
+    // for the largest (the flux criterion then uses the smallest cell's size).
+    rule = auto_rule(std::cbrt(smallest_cell_volume()));
+    bank_first = detail::auto_step(v.d_min, poly ? poly_vmax : grid.cell_volume(), rule);
+    const std::int64_t last = detail::auto_step(v.d_max, smallest_cell_volume(), rule);
     for (std::int64_t k = bank_first; k <= last; ++k) bank.push_back(&get_template(5 * detail::auto_ladder_value(k)));
     log->info("particle_grid=auto: chi {:.3g} to {:.3g}, {} to {} sub-elements per particle",
-              grid.cell_size() / v.d_max, grid.cell_size() / v.d_min, bank.back()->size(), bank.front()->size());
+              std::cbrt(smallest_cell_volume()) / v.d_max, std::cbrt(poly ? poly_vmax : grid.cell_volume()) / v.d_min,
+              bank.back()->size(), bank.front()->size());
   }
 
   // --- validation ---------------------------------------------------------------------
@@ -271,7 +305,7 @@ struct Engine::Impl {
     // unless the mesh is much larger than the particle set.
     const double threads = arena->max_concurrency();
     if (threads <= 1) return Accumulation::privatised;
-    return double(grid.cell_count()) * threads <= 8.0 * double(n) ? Accumulation::privatised
+    return double(ncells()) * threads <= 8.0 * double(n) ? Accumulation::privatised
                                                                    : Accumulation::atomic;
   }
 
@@ -284,7 +318,7 @@ struct Engine::Impl {
   }
 
   void compute(const ParticleView& pv, std::span<double> out) {
-    const std::int64_t ncell = grid.cell_count();
+    const std::int64_t ncell = ncells();
     if (static_cast<std::int64_t>(out.size()) != ncell)
       throw Error(VFE_ERROR_INVALID_ARGUMENT, "output has " + std::to_string(out.size()) +
                                                   " values but the mesh has " + std::to_string(ncell) +
@@ -322,10 +356,29 @@ struct Engine::Impl {
       case Method::trilinear: driver = detail::trilinear_particle; break;
     }
     const bool shape_direct = opts.method == Method::direct;
+    if (poly && opts.method != Method::direct && opts.method != Method::pmm)
+      throw Error(VFE_ERROR_UNSUPPORTED, "method=" + std::string(to_string(opts.method)) +
+                                             " is not available on a polyMesh; use pmm (a large particle_grid "
+                                             "serves as the reference) or direct");
+    const detail::PolyContext poly_ctx{locator.get(), opts};
     auto particle = [&](Scratch& s, std::int64_t p) {
       s.deposits.clear();
       const double* cp = pv.centres + p * cs;
       const double r = pv.radii[p * rs];
+      if (poly) {
+        const Eigen::Vector3d c(cp[0], cp[1], cp[2]);
+        const double* q = pv.orientations ? pv.orientations + p * qs : nullptr;
+        if (pv.shape_ids && !shapes[pv.shape_ids[p]].is_sphere) {
+          const RegisteredShape& sh = shapes[pv.shape_ids[p]];
+          detail::polymesh_particle(poly_ctx, s, detail::Particle{p, c, r, sh.shape.volume() * r * r * r, q},
+                                    shape_direct ? nullptr : sh.tmpl, sh.shape.centroid());
+        } else {
+          detail::polymesh_particle(poly_ctx, s,
+                                    detail::Particle{p, c, r, 4.0 / 3.0 * std::numbers::pi * r * r * r, q},
+                                    shape_direct ? nullptr : &poly_template(c, 2 * r), Eigen::Vector3d::Zero());
+        }
+        return;
+      }
       if (pv.shape_ids && !shapes[pv.shape_ids[p]].is_sphere) {
         const RegisteredShape& sh = shapes[pv.shape_ids[p]];
         const detail::Particle shaped{p, Eigen::Vector3d(cp[0], cp[1], cp[2]), r, sh.shape.volume() * r * r * r,
@@ -402,7 +455,7 @@ struct Engine::Impl {
       msg.precision(9);
       msg << "particle " << first_error << " at (" << cp[0] << ", " << cp[1] << ", " << cp[2]
           << ") with radius " << pv.radii[first_error * rs] << " reaches outside the mesh ["
-          << grid.origin().transpose() << "] - [" << grid.upper().transpose() << "] ("
+          << grid.origin().transpose() << "] - [" << grid.upper().transpose() << "] (bounding box; "
           << rep.outside_particles
           << " particles do); enlarge the mesh or choose outside=nearest, centre or drop";
       throw Error(VFE_ERROR_OUT_OF_DOMAIN, msg.str());
@@ -421,12 +474,21 @@ struct Engine::Impl {
               to_string(opts.method), rep.sub_elements, rep.fast_path_particles, rep.outside_particles);
   }
 
+  /// pmm's sphere template on a polyMesh: auto sizes it by the cell holding the centre.
+  const ParticleTemplate& poly_template(const Eigen::Vector3d& c, double diameter) const {
+    if (bank.size() == 1) return *bank.front();
+    std::int64_t cell = locator->locate(c);
+    if (cell < 0) cell = locator->nearest_cell(c);
+    const std::int64_t k = detail::auto_step(diameter, poly->cell_volume(cell), rule);
+    return *bank[static_cast<std::size_t>(std::clamp<std::int64_t>(k - bank_first, 0, std::int64_t(bank.size()) - 1))];
+  }
+
   /// Solid volume that clipping eps at alpha_min removes (0 when alpha_min is 0: no clip).
   double clipped_volume(const std::vector<double>& field) const {
     if (opts.alpha_min <= 0) return 0.0;
-    const double vc = grid.cell_volume();
     double clipped = 0;
-    for (double vs : field) clipped += std::max(0.0, vs - (1.0 - opts.alpha_min) * vc);
+    for (std::size_t c = 0; c < field.size(); ++c)
+      clipped += std::max(0.0, field[c] - (1.0 - opts.alpha_min) * cell_volume(static_cast<std::int64_t>(c)));
     return clipped;
   }
 
@@ -480,6 +542,8 @@ struct Engine::Impl {
 };
 
 Engine::Engine(const CartesianGridSpec& grid) : impl_(std::make_unique<Impl>(grid)) {}
+Engine::Engine(const PolyMeshSpec& mesh)
+    : impl_(std::make_unique<Impl>(std::make_unique<PolyMesh>(PolyMesh::read(mesh.dir)))) {}
 Engine::~Engine() = default;
 
 void Engine::configure(std::string_view options) {
@@ -492,28 +556,64 @@ void Engine::configure(std::string_view options) {
 
 std::string Engine::option(std::string_view key) const { return option_value(impl_->opts, key); }
 std::string Engine::options() const { return format_options(impl_->opts); }
-std::int64_t Engine::cell_count() const { return impl_->grid.cell_count(); }
+std::int64_t Engine::cell_count() const { return impl_->ncells(); }
+bool Engine::is_polymesh() const { return impl_->poly != nullptr; }
+
+namespace {
+void check_size(std::span<const double> out, std::int64_t expected, const char* what) {
+  if (static_cast<std::int64_t>(out.size()) != expected)
+    throw Error(VFE_ERROR_INVALID_ARGUMENT, std::string(what) + " has " + std::to_string(out.size()) +
+                                                " values but needs " + std::to_string(expected) +
+                                                " (per cell); pass a buffer of that size");
+}
+}  // namespace
 
 void Engine::cell_volumes(std::span<double> out) const {
-  if (static_cast<std::int64_t>(out.size()) != cell_count())
-    throw Error(VFE_ERROR_INVALID_ARGUMENT, "output has " + std::to_string(out.size()) +
-                                                " values but the mesh has " + std::to_string(cell_count()) +
-                                                " cells; pass a buffer of cell_count values");
-  std::fill(out.begin(), out.end(), impl_->grid.cell_volume());
+  check_size(out, cell_count(), "output");
+  for (std::int64_t c = 0; c < cell_count(); ++c) out[c] = impl_->cell_volume(c);
+}
+
+void Engine::cell_centres(std::span<double> out) const {
+  check_size(out, 3 * cell_count(), "output");
+  for (std::int64_t c = 0; c < cell_count(); ++c) {
+    Eigen::Vector3d x;
+    if (impl_->poly) {
+      x = impl_->poly->cell_centre(c);
+    } else {
+      const auto& n = impl_->grid.cells();
+      const std::int64_t i = c % n[0], j = (c / n[0]) % n[1], k = c / (n[0] * n[1]);
+      x = impl_->grid.origin() +
+          impl_->grid.spacing().cwiseProduct(Eigen::Vector3d(double(i) + 0.5, double(j) + 0.5, double(k) + 0.5));
+    }
+    for (int d = 0; d < 3; ++d) out[3 * c + d] = x[d];
+  }
+}
+
+Engine::PolyTopology Engine::poly_topology() const {
+  if (!impl_->poly) throw Error(VFE_ERROR_INVALID_ARGUMENT, "poly_topology: this engine is on a Cartesian grid");
+  const PolyMesh& m = *impl_->poly;
+  PolyTopology t;
+  for (const auto& p : m.points()) t.points.insert(t.points.end(), {p[0], p[1], p[2]});
+  t.face_offsets.push_back(0);
+  for (std::int64_t f = 0; f < m.face_count(); ++f) {
+    for (const std::int64_t q : m.face(f)) t.face_points.push_back(q);
+    t.face_offsets.push_back(static_cast<std::int64_t>(t.face_points.size()));
+  }
+  t.cell_face_offsets.push_back(0);
+  for (std::int64_t c = 0; c < m.cell_count(); ++c) {
+    for (const std::int64_t f : m.cell_faces(c)) t.cell_faces.push_back(f);
+    t.cell_face_offsets.push_back(static_cast<std::int64_t>(t.cell_faces.size()));
+  }
+  return t;
 }
 
 void Engine::compute(const ParticleView& particles, std::span<double> out) { impl_->compute(particles, out); }
 
 void Engine::void_fraction(std::span<double> out) const {
-  const std::int64_t n = cell_count();
-  if (static_cast<std::int64_t>(out.size()) != n)
-    throw Error(VFE_ERROR_INVALID_ARGUMENT, "output has " + std::to_string(out.size()) +
-                                                " values but the mesh has " + std::to_string(n) +
-                                                " cells; pass a buffer of cell_count values");
-  const double vc = impl_->grid.cell_volume();
+  check_size(out, cell_count(), "output");
   const double alpha_min = impl_->opts.alpha_min;
-  for (std::int64_t c = 0; c < n; ++c) {
-    const double eps = 1.0 - impl_->solid[c] / vc;
+  for (std::int64_t c = 0; c < cell_count(); ++c) {
+    const double eps = 1.0 - impl_->solid[c] / impl_->cell_volume(c);
     out[c] = alpha_min > 0 && eps < alpha_min ? alpha_min : eps;
   }
 }

@@ -124,7 +124,24 @@ int main(void) {
     s = vfe_create_cartesian(origin, spacing, zero_cells, &bad);
     CHECK(s == VFE_ERROR_INVALID_ARGUMENT && bad == NULL, "zero cells");
     CHECK(strstr(vfe_last_error(NULL), "cells[1]") != NULL, "creation message: %s", vfe_last_error(NULL));
-    CHECK(vfe_create_polymesh("no/such/case", &bad) != VFE_OK && bad == NULL, "polymesh");
+    CHECK(vfe_create_polymesh("no/such/case", &bad) == VFE_ERROR_IO && bad == NULL, "polymesh: %s",
+          vfe_last_error(NULL));
+    s = vfe_create_polymesh(VFE_SOURCE_DIR "/data/openfoam/box_uniform_10x10x30", &bad);
+    CHECK(s == VFE_OK && vfe_cell_count(bad) == 3000, "polymesh: %s", vfe_last_error(NULL));
+    if (bad) {
+      const double pc[3] = {0.005, 0.005, 0.005}, pr = 0.0007;
+      double* f = (double*)malloc(sizeof(double) * 3000);
+      double sum = 0;
+      int64_t k;
+      CHECK(vfe_compute(bad, 1, pc, &pr, NULL, f) == VFE_OK, "polymesh compute: %s", vfe_last_error(bad));
+      for (k = 0; k < 3000; ++k) sum += f[k];
+      CHECK(fabs(sum - 4.0 / 3.0 * kPi * pr * pr * pr) < 1e-12 * sum, "polymesh volume %g", sum);
+      CHECK(vfe_configure(bad, "method=exact") == VFE_OK, "configure");
+      CHECK(vfe_compute(bad, 1, pc, &pr, NULL, f) == VFE_ERROR_UNSUPPORTED, "exact on polymesh");
+      free(f);
+      vfe_destroy(bad);
+      bad = NULL;
+    }
     CHECK(vfe_create_cartesian(NULL, spacing, cells, &bad) == VFE_ERROR_INVALID_ARGUMENT, "NULL origin");
   }
   CHECK(vfe_cell_count(NULL) == -1, "NULL engine count");

@@ -10,6 +10,7 @@
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace vfe {
 
@@ -31,6 +32,12 @@ struct CartesianGridSpec {
   std::array<double, 3> origin{0, 0, 0};
   std::array<double, 3> spacing{1, 1, 1};
   std::array<std::int64_t, 3> cells{1, 1, 1};
+};
+
+/// An OpenFOAM polyMesh: the case folder, its constant folder or the polyMesh folder
+/// itself (ASCII or binary, plain or gzipped files). Cells keep OpenFOAM's order.
+struct PolyMeshSpec {
+  std::string dir;
 };
 
 /// Zero-copy view of the host's particle arrays. Strides count doubles between
@@ -55,6 +62,10 @@ class Engine {
  public:
   /// Builds an engine on a Cartesian grid; throws Error on invalid geometry.
   explicit Engine(const CartesianGridSpec& grid);
+  /// Builds an engine on an OpenFOAM polyMesh; throws Error (I/O or invalid mesh).
+  /// Methods there: direct and pmm (spheres and shapes); the others answer
+  /// VFE_ERROR_UNSUPPORTED (use pmm with a large particle_grid as the reference).
+  explicit Engine(const PolyMeshSpec& mesh);
   ~Engine();
   Engine(const Engine&) = delete;
   Engine& operator=(const Engine&) = delete;
@@ -67,6 +78,19 @@ class Engine {
   std::string options() const;
 
   std::int64_t cell_count() const;
+  /// True for an OpenFOAM polyMesh engine, false for a Cartesian grid.
+  bool is_polymesh() const;
+  /// Cell centres in cell order (3 values per cell: x, y, z).
+  void cell_centres(std::span<double> out) const;
+  /// The polyMesh's points (3 per point), and per cell its faces as point lists, for
+  /// writers that draw the cells (VTK polyhedra): face_offsets has one entry per face plus
+  /// one, face_points the points of each face, cell_face_offsets one entry per cell plus
+  /// one into cell_faces. Throws Error on a Cartesian engine.
+  struct PolyTopology {
+    std::vector<double> points;
+    std::vector<std::int64_t> face_offsets, face_points, cell_face_offsets, cell_faces;
+  };
+  PolyTopology poly_topology() const;
   /// Cell volumes in cell order.
   void cell_volumes(std::span<double> out) const;
 

@@ -139,7 +139,7 @@ void deposit_points(const Context& ctx, Scratch& s, const Particle& p, const ker
                     const Eigen::Matrix3d& transform, Outside policy);
 
 /// The rotation of particle p's template under the orientation option.
-Eigen::Matrix3d particle_rotation(const Context& ctx, const Particle& p);
+Eigen::Matrix3d particle_rotation(const Options& opts, const Particle& p);
 
 /// A non-spherical particle (radius = its shape's scale): pmm deposits the shape's
 /// template t; with t null (direct) everything goes to the cell holding the centroid.

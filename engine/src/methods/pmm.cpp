@@ -16,13 +16,13 @@ void pmm_particle(const Context& ctx, Scratch& s, const Particle& p) {
     return;
   }
   s.sub_elements += n;
-  deposit_points(ctx, s, p, t, particle_rotation(ctx, p), ctx.opts.outside);
+  deposit_points(ctx, s, p, t, particle_rotation(ctx.opts, p), ctx.opts.outside);
 }
 
-Eigen::Matrix3d particle_rotation(const Context& ctx, const Particle& p) {
-  switch (ctx.opts.orientation) {
+Eigen::Matrix3d particle_rotation(const Options& opts, const Particle& p) {
+  switch (opts.orientation) {
     case Orientation::none: break;
-    case Orientation::random: return kernels::random_rotation(std::uint64_t(p.index), ctx.opts.seed);
+    case Orientation::random: return kernels::random_rotation(std::uint64_t(p.index), opts.seed);
     case Orientation::given: return kernels::rotation_from_quaternion(p.orientation);
   }
   return Eigen::Matrix3d::Identity();
@@ -30,7 +30,7 @@ Eigen::Matrix3d particle_rotation(const Context& ctx, const Particle& p) {
 
 void shape_particle(const Context& ctx, Scratch& s, const Particle& p, const kernels::ParticleTemplate* tmpl,
                     const Eigen::Vector3d& centroid) {
-  const Eigen::Matrix3d rotation = particle_rotation(ctx, p);
+  const Eigen::Matrix3d rotation = particle_rotation(ctx.opts, p);
   if (!tmpl) {
     const Eigen::Vector3d at = p.centre + p.radius * (rotation * centroid);
     ++s.sub_elements;
