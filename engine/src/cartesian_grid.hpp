@@ -37,19 +37,37 @@ class CartesianGrid {
   /// Coordinate of x in cell units along axis d (the argument of axis_index's floor).
   double axis_coordinate(int d, double x) const { return (x - o_[d]) * inv_h_[d]; }
   std::int64_t clamp_axis(int d, std::int64_t i) const { return i < 0 ? 0 : (i >= n_[d] ? n_[d] - 1 : i); }
+
+  /// Periodic axes (bit d for axis d): what leaves one side enters the opposite one.
+  void set_periodic(unsigned mask) { periodic_ = mask; }
+  bool periodic(int d) const { return (periodic_ >> d) & 1u; }
+  unsigned periodic_mask() const { return periodic_; }
+  std::int64_t wrap_axis(int d, std::int64_t i) const { return ((i % n_[d]) + n_[d]) % n_[d]; }
+  /// The mesh cell of integer coordinate i along axis d: wrapped on a periodic axis,
+  /// -1 outside otherwise.
+  std::int64_t cell_axis(int d, std::int64_t i) const {
+    if (periodic(d)) return wrap_axis(d, i);
+    return i < 0 || i >= n_[d] ? -1 : i;
+  }
   std::int64_t index(std::int64_t i, std::int64_t j, std::int64_t k) const { return i + n_[0] * (j + n_[1] * k); }
 
   /// Cell holding p, or -1 when p is outside the grid. Points on an interior face go to
   /// the cell above it; points on the upper boundary are outside.
   std::int64_t locate(const Eigen::Vector3d& p) const {
-    const std::int64_t i = axis_index(0, p[0]), j = axis_index(1, p[1]), k = axis_index(2, p[2]);
-    if (i < 0 || j < 0 || k < 0 || i >= n_[0] || j >= n_[1] || k >= n_[2]) return -1;
+    const std::int64_t i = cell_axis(0, axis_index(0, p[0])), j = cell_axis(1, axis_index(1, p[1])),
+                       k = cell_axis(2, axis_index(2, p[2]));
+    if (i < 0 || j < 0 || k < 0) return -1;
     return index(i, j, k);
   }
-  /// The cell nearest to p (p itself when inside): indices clamped to the grid.
+  /// The cell nearest to p (p itself when inside): indices clamped to the grid (wrapped
+  /// on periodic axes).
   std::int64_t nearest(const Eigen::Vector3d& p) const {
-    return index(clamp_axis(0, axis_index(0, p[0])), clamp_axis(1, axis_index(1, p[1])),
-                 clamp_axis(2, axis_index(2, p[2])));
+    std::int64_t g[3];
+    for (int d = 0; d < 3; ++d) {
+      const std::int64_t i = axis_index(d, p[d]);
+      g[d] = periodic(d) ? wrap_axis(d, i) : clamp_axis(d, i);
+    }
+    return index(g[0], g[1], g[2]);
   }
   /// Cell size as DESIGN defines it: cube root of the cell volume.
   double cell_size() const { return std::cbrt(cell_volume()); }
@@ -57,6 +75,7 @@ class CartesianGrid {
  private:
   Eigen::Vector3d o_, h_, inv_h_;
   std::array<std::int64_t, 3> n_;
+  unsigned periodic_ = 0;
 };
 
 }  // namespace vfe

@@ -381,13 +381,13 @@ struct Engine::Impl {
       }
       if (pv.shape_ids && !shapes[pv.shape_ids[p]].is_sphere) {
         const RegisteredShape& sh = shapes[pv.shape_ids[p]];
-        const detail::Particle shaped{p, Eigen::Vector3d(cp[0], cp[1], cp[2]), r, sh.shape.volume() * r * r * r,
+        const detail::Particle shaped{p, wrapped(Eigen::Vector3d(cp[0], cp[1], cp[2])), r, sh.shape.volume() * r * r * r,
                                       pv.orientations ? pv.orientations + p * qs : nullptr};
         detail::shape_particle(ctx, s, shaped, shape_direct ? nullptr : sh.tmpl,
                                sh.shape.centroid());
         return;
       }
-      const detail::Particle particle{p, Eigen::Vector3d(cp[0], cp[1], cp[2]), r,
+      const detail::Particle particle{p, wrapped(Eigen::Vector3d(cp[0], cp[1], cp[2])), r,
                                       4.0 / 3.0 * std::numbers::pi * r * r * r,
                                       pv.orientations ? pv.orientations + p * qs : nullptr};
       driver(ctx, s, particle);
@@ -474,6 +474,19 @@ struct Engine::Impl {
               to_string(opts.method), rep.sub_elements, rep.fast_path_particles, rep.outside_particles);
   }
 
+  /// A position moved into the grid along its periodic axes (others unchanged).
+  Eigen::Vector3d wrapped(Eigen::Vector3d c) const {
+    for (int d = 0; d < 3; ++d) {
+      if (!grid.periodic(d)) continue;
+      const double length = grid.spacing()[d] * double(grid.cells()[d]);
+      double u = std::fmod(c[d] - grid.origin()[d], length);
+      if (u < 0) u += length;
+      if (!(u < length)) u = 0;  // fmod of a value just below a multiple of the length
+      c[d] = grid.origin()[d] + u;
+    }
+    return c;
+  }
+
   /// pmm's sphere template on a polyMesh: auto sizes it by the cell holding the centre.
   const ParticleTemplate& poly_template(const Eigen::Vector3d& c, double diameter) const {
     if (bank.size() == 1) return *bank.front();
@@ -549,7 +562,12 @@ Engine::~Engine() = default;
 void Engine::configure(std::string_view options) {
   Options next = parse_options(options, impl_->opts);
   const bool new_arena = next.threads != impl_->opts.threads;
+  if (next.periodic && impl_->poly)
+    throw Error(VFE_ERROR_UNSUPPORTED,
+                "periodic axes are available on Cartesian grids only; a polyMesh's cyclic patches are not "
+                "supported yet (use periodic=none)");
   impl_->opts = next;
+  impl_->grid.set_periodic(next.periodic);
   if (new_arena) impl_->make_arena();
   impl_->log->set_level(spdlog::level::from_str(next.log_level));
 }

@@ -23,12 +23,6 @@ const char* const kKeys =
                                               std::string(value) + "'; expected " + std::string(expected));
 }
 
-[[noreturn]] void unsupported(std::string_view key, std::string_view value, std::string_view available) {
-  throw Error(VFE_ERROR_UNSUPPORTED, "option '" + std::string(key) + "=" + std::string(value) +
-                                         "' is not available in this version; available: " +
-                                         std::string(available));
-}
-
 std::int64_t parse_int(std::string_view key, std::string_view v, std::int64_t lo, std::int64_t hi) {
   std::int64_t x = 0;
   auto [p, ec] = std::from_chars(v.data(), v.data() + v.size(), x);
@@ -121,11 +115,14 @@ void apply(Options& o, std::string_view key, std::string_view v) {
   } else if (key == "alpha_min") {
     o.alpha_min = parse_double(key, v, 0.0, 1.0);
   } else if (key == "periodic") {
+    unsigned mask = 0;
     if (v != "none") {
-      for (char c : v)
+      for (char c : v) {
         if (c != 'x' && c != 'y' && c != 'z') bad(key, v, "none or a combination of x, y, z (e.g. xy)");
-      unsupported(key, v, "none");
+        mask |= 1u << (c - 'x');
+      }
     }
+    o.periodic = mask;
   } else if (key == "accumulation") {
     o.accumulation = parse_enum(key, v, kAccumulation);
   } else if (key == "seed") {
@@ -184,7 +181,13 @@ std::string option_value(const Options& o, std::string_view key) {
   if (key == "gamma") return number_text(o.gamma);
   if (key == "superficial_velocity") return number_text(o.superficial_velocity);
   if (key == "fluid_dt") return number_text(o.fluid_dt);
-  if (key == "periodic") return "none";
+  if (key == "periodic") {
+    if (!o.periodic) return "none";
+    std::string axes;
+    for (int d = 0; d < 3; ++d)
+      if ((o.periodic >> d) & 1u) axes += char('x' + d);
+    return axes;
+  }
   if (key == "accumulation") return name_of(o.accumulation, kAccumulation);
   if (key == "seed") return std::to_string(o.seed);
   if (key == "log_level") return o.log_level;

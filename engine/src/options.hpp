@@ -29,6 +29,7 @@ struct Options {
   double alpha_min = 0;
   Accumulation accumulation = Accumulation::automatic;
   std::uint64_t seed = 0;  ///< of the per-particle random template rotation
+  unsigned periodic = 0;   ///< periodic axes: bit 0 x, bit 1 y, bit 2 z
   /// gaussian: standard deviation in particle diameters; about the sphere's own per-axis
   /// spread R / sqrt(5) = 0.224 d.
   double sigma = 0.25;

@@ -83,7 +83,8 @@ int main(void) {
   s = vfe_configure(e, "particle_grid=abc");
   CHECK(s == VFE_ERROR_INVALID_ARGUMENT && strstr(vfe_last_error(e), "particle_grid"), "bad value: %s",
         vfe_last_error(e));
-  CHECK(vfe_configure(e, "periodic=x") == VFE_ERROR_UNSUPPORTED, "unsupported option value");
+  CHECK(vfe_configure(e, "periodic=xq") == VFE_ERROR_INVALID_ARGUMENT, "bad periodic axes");
+  CHECK(vfe_configure(e, "periodic=none") == VFE_OK, "periodic=none");
   s = vfe_configure(e, "method=gaussian sigma=0");
   CHECK(s == VFE_ERROR_INVALID_ARGUMENT && strstr(vfe_last_error(e), "sigma"), "bad sigma: %s", vfe_last_error(e));
   s = vfe_configure(e, "gamma=-2");

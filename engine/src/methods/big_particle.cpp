@@ -7,6 +7,7 @@
 #include <vfe/kernels/big_particle.hpp>
 
 #include <algorithm>
+#include <limits>
 #include <cmath>
 
 namespace vfe::detail {
@@ -44,8 +45,11 @@ void big_particle_particle(const Context& ctx, Scratch& s, const Particle& p) {
   Window w;
   for (int d = 0; d < 3; ++d) {
     const std::int64_t n = grid.cells()[d];
-    w.lo[d] = std::clamp<std::int64_t>(g0[d], -1, n);
-    w.m[d] = m[d] > 0 ? std::clamp<std::int64_t>(g0[d] + m[d] - 1, -1, n) - w.lo[d] + 1 : 1;
+    // On a periodic axis the lattice range is kept whole (emit_window wraps it).
+    const std::int64_t lo = grid.periodic(d) ? std::numeric_limits<std::int64_t>::min() : -1;
+    const std::int64_t hi = grid.periodic(d) ? std::numeric_limits<std::int64_t>::max() : n;
+    w.lo[d] = std::clamp<std::int64_t>(g0[d], lo, hi);
+    w.m[d] = m[d] > 0 ? std::clamp<std::int64_t>(g0[d] + m[d] - 1, lo, hi) - w.lo[d] + 1 : 1;
   }
   s.window.assign(w.size(), 0.0);
   const std::int64_t count = kernels::big_particle_deposit(
@@ -54,7 +58,8 @@ void big_particle_particle(const Context& ctx, Scratch& s, const Particle& p) {
         std::int64_t l[3];
         const int ijk[3] = {i, j, k};
         for (int d = 0; d < 3; ++d)
-          l[d] = std::clamp<std::int64_t>(g0[d] + ijk[d], -1, grid.cells()[d]) - w.lo[d];
+          l[d] = (grid.periodic(d) ? g0[d] + ijk[d] : std::clamp<std::int64_t>(g0[d] + ijk[d], -1, grid.cells()[d])) -
+                 w.lo[d];
         s.window[static_cast<std::size_t>(l[0] + w.m[0] * (l[1] + w.m[1] * l[2]))] += v;
       });
   if (count > 0) {

@@ -29,6 +29,11 @@ Window make_window(const CartesianGrid& grid, const Eigen::Vector3d& c, const Ei
   Window w;
   for (int d = 0; d < 3; ++d) {
     const std::int64_t n = grid.cells()[d];
+    if (grid.periodic(d)) {  // real coordinates; emit_window wraps them
+      w.lo[d] = grid.axis_index(d, c[d] - half[d]);
+      w.m[d] = grid.axis_index(d, c[d] + half[d]) - w.lo[d] + 1;
+      continue;
+    }
     w.lo[d] = std::clamp<std::int64_t>(grid.axis_index(d, c[d] - half[d]), -1, n);
     w.m[d] = std::clamp<std::int64_t>(grid.axis_index(d, c[d] + half[d]), -1, n) - w.lo[d] + 1;
   }
@@ -40,6 +45,10 @@ void window_nodes(const CartesianGrid& grid, const Window& w, int d, std::vector
   nodes.resize(static_cast<std::size_t>(w.m[d] + 1));
   for (std::int64_t i = 0; i <= w.m[d]; ++i) {
     const std::int64_t g = w.lo[d] + i;
+    if (grid.periodic(d)) {
+      nodes[i] = double(g);
+      continue;
+    }
     nodes[i] = g < 0 ? -std::numeric_limits<double>::infinity()
                      : (g > n ? std::numeric_limits<double>::infinity() : double(g));
   }
@@ -78,8 +87,9 @@ void emit_window(const Context& ctx, Scratch& s, const Particle& p, const Window
       for (std::int64_t i = 0; i < w.m[0]; ++i, ++local) {
         const double v = s.window[local];
         if (v == 0.0) continue;
-        const std::int64_t gi = w.lo[0] + i, gj = w.lo[1] + j, gk = w.lo[2] + k;
-        if (gi < 0 || gj < 0 || gk < 0 || gi >= grid.cells()[0] || gj >= grid.cells()[1] || gk >= grid.cells()[2])
+        const std::int64_t gi = grid.cell_axis(0, w.lo[0] + i), gj = grid.cell_axis(1, w.lo[1] + j),
+                           gk = grid.cell_axis(2, w.lo[2] + k);
+        if (gi < 0 || gj < 0 || gk < 0)
           any_outside = true;
         else
           s.deposits.push_back({grid.index(gi, gj, gk), v});
@@ -91,13 +101,14 @@ void emit_window(const Context& ctx, Scratch& s, const Particle& p, const Window
     for (std::int64_t j = 0; j < w.m[1]; ++j)
       for (std::int64_t i = 0; i < w.m[0]; ++i, ++local) {
         const double v = s.window[local];
-        const std::int64_t g[3] = {w.lo[0] + i, w.lo[1] + j, w.lo[2] + k};
+        std::int64_t g[3] = {w.lo[0] + i, w.lo[1] + j, w.lo[2] + k};
         bool out = false;
-        for (int d = 0; d < 3; ++d) out |= g[d] < 0 || g[d] >= grid.cells()[d];
+        for (int d = 0; d < 3; ++d) {
+          out |= grid.cell_axis(d, g[d]) < 0;
+          g[d] = grid.periodic(d) ? grid.wrap_axis(d, g[d]) : grid.clamp_axis(d, g[d]);
+        }
         if (v == 0.0 || !out) continue;
-        outside(ctx, s, p, v,
-                grid.index(grid.clamp_axis(0, g[0]), grid.clamp_axis(1, g[1]), grid.clamp_axis(2, g[2])), flagged,
-                policy);
+        outside(ctx, s, p, v, grid.index(g[0], g[1], g[2]), flagged, policy);
       }
 }
 

@@ -20,8 +20,11 @@ void exact_particle(const Context& ctx, Scratch& s, const Particle& p) {
   std::int64_t lo[3], hi[3];
   bool empty = false;
   for (int d = 0; d < 3; ++d) {
-    lo[d] = std::max<std::int64_t>(grid.axis_index(d, c[d] - r), 0);
-    hi[d] = std::min<std::int64_t>(grid.axis_index(d, c[d] + r), grid.cells()[d] - 1);
+    lo[d] = grid.axis_index(d, c[d] - r);
+    hi[d] = grid.axis_index(d, c[d] + r);
+    if (grid.periodic(d)) continue;  // cells beyond the side wrap (in the sink below)
+    lo[d] = std::max<std::int64_t>(lo[d], 0);
+    hi[d] = std::min<std::int64_t>(hi[d], grid.cells()[d] - 1);
     if (lo[d] > hi[d]) empty = true;
   }
   bool flagged = false;
@@ -39,7 +42,9 @@ void exact_particle(const Context& ctx, Scratch& s, const Particle& p) {
   double inside = 0;
   kernels::sphere_patch_overlaps(c, r, s.nodes[0].data(), m[0], s.nodes[1].data(), m[1], s.nodes[2].data(), m[2],
                                  s.orthant, s.patch, [&](int i, int j, int k, double v) {
-                                   s.add(grid.index(lo[0] + i, lo[1] + j, lo[2] + k), v);
+                                   s.add(grid.index(grid.cell_axis(0, lo[0] + i), grid.cell_axis(1, lo[1] + j),
+                                                    grid.cell_axis(2, lo[2] + k)),
+                                         v);
                                    inside += v;
                                  });
   // What the patch misses lies outside the mesh (beyond round-off).
