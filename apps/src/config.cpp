@@ -160,20 +160,33 @@ MethodSpec method_entry(const Ctx& ctx, const YAML::Node& n, const std::string& 
   return m;
 }
 
-MeshSpec mesh_entry(const Ctx& ctx, const YAML::Node& n, std::size_t index) {
+MeshSpec mesh_entry(const Ctx& ctx, const YAML::Node& n, std::size_t index, const fs::path& base_dir) {
   const std::string where0 = "mesh " + std::to_string(index + 1);
   if (!n.IsMap())
-    ctx.fail(n, where0 + " must be a map with keys name, type, origin/bounds, spacing, cells");
+    ctx.fail(n, where0 + " must be a map with keys name, type, origin/bounds, spacing, cells (cartesian) or "
+                         "name, type, path (polymesh)");
   MeshSpec m;
   m.line = n.Mark().is_null() ? 0 : n.Mark().line + 1;
   m.name = n["name"] ? scalar(ctx, n["name"], where0 + ": name") : "mesh" + std::to_string(index + 1);
   const std::string where = "mesh '" + m.name + "'";
-  check_keys(ctx, n, {"name", "type", "origin", "spacing", "cells", "bounds"}, where);
   if (!is_identifier_like(m.name))
     ctx.fail(n["name"], where + ": the name may only have letters, digits, '_' and '-'");
   if (n["type"]) m.type = scalar(ctx, n["type"], where + ": type");
-  if (m.type != "cartesian")
-    ctx.fail(n["type"], where + ": type '" + m.type + "' is not supported; use type: cartesian");
+  if (m.type != "cartesian" && m.type != "polymesh")
+    ctx.fail(n["type"], where + ": unknown mesh type '" + m.type +
+                            "'; use type: cartesian (origin/bounds, spacing, cells) or type: polymesh "
+                            "(path: an OpenFOAM case or polyMesh folder)");
+  if (m.type == "polymesh") {
+    check_keys(ctx, n, {"name", "type", "path"}, where + " (type polymesh)");
+    if (!n["path"] || n["path"].IsNull())
+      ctx.fail(n, where + ": type polymesh needs 'path: FOLDER', an OpenFOAM case folder (with "
+                          "constant/polyMesh) or a polyMesh folder, relative to the config's folder");
+    const std::string p = scalar(ctx, n["path"], where + ": path");
+    if (p.empty()) ctx.fail(n["path"], where + ": path is empty");
+    m.path = fs::path(p).is_absolute() ? fs::path(p) : (base_dir / p).lexically_normal();
+    return m;
+  }
+  check_keys(ctx, n, {"name", "type", "origin", "spacing", "cells", "bounds"}, where);
   if (n["origin"]) m.origin = triple(ctx, n["origin"], where + ": origin");
   if (n["spacing"]) m.spacing = triple(ctx, n["spacing"], where + ": spacing");
   if (n["cells"]) m.cells = triple_int(ctx, n["cells"], where + ": cells");
@@ -220,7 +233,7 @@ SceneConfig parse_root(const Ctx& ctx, const YAML::Node& root, const fs::path& b
   if (!root.IsMap()) ctx.fail(root, "the config must be a map of keys (name, particles, meshes, methods, ...)");
   check_keys(ctx, root,
              {"name", "particles", "meshes", "chi", "methods", "reference", "threads", "repeats", "options", "output",
-              "vtk"},
+              "vtk", "foam"},
              "the config");
   SceneConfig c;
   c.source = ctx.source;
@@ -282,7 +295,7 @@ SceneConfig parse_root(const Ctx& ctx, const YAML::Node& root, const fs::path& b
   std::set<std::string> mesh_names;
   for (double x : c.chi) mesh_names.insert(chi_mesh_name(x));
   for (std::size_t i = 0; !no_meshes && i < meshes.size(); ++i) {
-    MeshSpec m = mesh_entry(ctx, meshes[i], i);
+    MeshSpec m = mesh_entry(ctx, meshes[i], i, base_dir);
     if (!mesh_names.insert(m.name).second)
       ctx.fail(meshes[i], "two meshes are named '" + m.name + "' (chi: [...] makes meshes chi_<value>); "
                           "give each mesh its own name");
@@ -350,6 +363,13 @@ SceneConfig parse_root(const Ctx& ctx, const YAML::Node& root, const fs::path& b
       ctx.fail(root["vtk"], "vtk must be true or false");
     }
   }
+  if (root["foam"]) {
+    try {
+      c.foam = root["foam"].as<bool>();
+    } catch (const YAML::BadConversion&) {
+      ctx.fail(root["foam"], "foam must be true or false");
+    }
+  }
   return c;
 }
 
@@ -393,6 +413,10 @@ vfe::CartesianGridSpec resolve_grid(const MeshSpec& m, const std::array<double, 
   vfe::CartesianGridSpec g;
   const std::string where = source + (m.line > 0 ? ":" + std::to_string(m.line) : std::string()) +
                             ": mesh '" + m.name + "'";
+  if (m.type != "cartesian")
+    throw ConfigError(where + ": is a " + m.type + " mesh, not a Cartesian grid");
+  if (!m.origin && !m.bounds && !m.bounds_particles_box)
+    throw ConfigError(where + ": no position; give origin, spacing and cells, or bounds and spacing");
   if (m.origin) {
     g.origin = *m.origin;
     g.spacing = *m.spacing;
@@ -435,6 +459,33 @@ vfe::CartesianGridSpec resolve_grid(const MeshSpec& m, const std::array<double, 
   }
   if (note) *note = notes;
   return g;
+}
+
+fs::path find_polymesh_folder(const fs::path& dir) {
+  std::error_code ec;
+  auto has = [&](const fs::path& d, const char* name) {
+    return fs::is_regular_file(d / name, ec) || fs::is_regular_file(d / (std::string(name) + ".gz"), ec);
+  };
+  for (const fs::path& d : {dir / "constant" / "polyMesh", dir / "polyMesh", dir})
+    if (fs::is_directory(d, ec) && has(d, "points") && has(d, "faces") && has(d, "owner")) return d;
+  return {};
+}
+
+void check_mesh_paths(const SceneConfig& c) {
+  for (const MeshSpec& m : c.meshes) {
+    if (m.type != "polymesh") continue;
+    const std::string where = c.source.string() + (m.line > 0 ? ":" + std::to_string(m.line) : std::string()) +
+                              ": mesh '" + m.name + "'";
+    std::error_code ec;
+    if (!fs::exists(m.path, ec))
+      throw ConfigError(where + ": path " + m.path.string() +
+                        " does not exist; give an OpenFOAM case folder (with constant/polyMesh) or a polyMesh "
+                        "folder, relative to the config's folder");
+    if (find_polymesh_folder(m.path).empty())
+      throw ConfigError(where + ": no polyMesh in " + m.path.string() +
+                        ": expected a case folder with constant/polyMesh, or a polyMesh folder, holding points, "
+                        "faces, owner, neighbour and boundary (plain or .gz)");
+  }
 }
 
 std::string chi_mesh_name(double chi) {

@@ -19,11 +19,15 @@ class ConfigError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-/// One mesh of the scene. Cartesian grids are given either by origin + spacing + cells, or
-/// by bounds (the particles' BOX BOUNDS or an explicit box) + spacing or cells.
+/// One mesh of the scene: type cartesian or polymesh.
+/// Cartesian grids are given either by origin + spacing + cells, or by bounds (the
+/// particles' BOX BOUNDS or an explicit box) + spacing or cells.
+/// An OpenFOAM polyMesh is given by path: its case folder, its constant folder or the
+/// polyMesh folder itself (resolved against the config's folder).
 struct MeshSpec {
   std::string name;
-  std::string type = "cartesian";
+  std::string type = "cartesian";  ///< "cartesian" or "polymesh"
+  std::filesystem::path path;      ///< polymesh: the folder, resolved against the config's folder
   std::optional<std::array<double, 3>> origin;
   std::optional<std::array<double, 3>> spacing;
   std::optional<std::array<std::int64_t, 3>> cells;
@@ -58,7 +62,8 @@ struct SceneConfig {
   int repeats = 5;
   std::string options;                   ///< applied to every method (before its own)
   std::filesystem::path output;          ///< resolved against the config's folder
-  bool vtk = false;
+  bool vtk = false;                      ///< write <mesh>.vti / <mesh>.vtu
+  bool foam = false;                     ///< write OpenFOAM voidfraction fields (polyMesh meshes)
 };
 
 /// Reads and validates a config file. Relative paths in it are relative to its folder.
@@ -68,11 +73,20 @@ SceneConfig load_config(const std::filesystem::path& file);
 SceneConfig parse_config(const std::string& text, const std::filesystem::path& base_dir,
                          const std::string& source);
 
-/// The grid of a mesh. particles_box (xlo xhi ylo yhi zlo zhi) is needed for
+/// The grid of a Cartesian mesh (ConfigError for a polymesh). particles_box (xlo xhi ylo yhi zlo zhi) is needed for
 /// bounds: particles_box. When spacing does not divide the box, the grid keeps the spacing,
 /// rounds the cell count up and *note says so. Throws ConfigError.
 vfe::CartesianGridSpec resolve_grid(const MeshSpec& mesh, const std::array<double, 6>* particles_box,
                                     const std::string& source, std::string* note = nullptr);
+
+/// The polyMesh folder (holding points, faces, owner, neighbour, boundary) of a polymesh
+/// path: dir/constant/polyMesh, dir/polyMesh or dir itself, whichever exists first. Files may
+/// be gzipped (name.gz). Empty when there is none.
+std::filesystem::path find_polymesh_folder(const std::filesystem::path& dir);
+
+/// Checks that every polymesh mesh's path holds a polyMesh; throws ConfigError naming the
+/// mesh, its line in the config, the path and what was expected.
+void check_mesh_paths(const SceneConfig& config);
 
 /// The mesh of one chi value: bounds particles_box, spacing chi * mean_diameter (kept
 /// exactly: the grid extends past the box when the spacing does not divide it).

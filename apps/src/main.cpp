@@ -1,5 +1,5 @@
 // vfe: command-line tool of the vfe library.
-//   vfe run CONFIG.yaml [--output DIR] [--threads N] [--repeats N] [--quiet] [--vtk]
+//   vfe run CONFIG.yaml [--output DIR] [--threads N] [--repeats N] [--quiet] [--vtk] [--foam]
 //   vfe stability [--chi LIST] [--grid LIST] [--method M] [--template LIST] [--orientation LIST]
 //                 [--step S] [--trajectories N] [--seed N] [--cells C] [--sweep]
 //                 [--superficial-velocity U --fluid-dt DT [--diameter D]] [--output DIR]
@@ -32,6 +32,7 @@ int main(int argc, char** argv) {
   int repeats = -1;
   bool quiet = false;
   bool vtk = false;
+  bool foam = false;
   CLI::App* run = app.add_subcommand("run", "Compute, time and compare the methods of a YAML scene config");
   run->add_option("config", config_file, "Scene config (YAML), e.g. configs/bed_mono.yaml")
       ->required();
@@ -41,7 +42,12 @@ int main(int argc, char** argv) {
   run->add_option("-r,--repeats", repeats, "Timed computes per method (replaces the config's 'repeats')")
       ->check(CLI::Range(1, 1000000));
   run->add_flag("-q,--quiet", quiet, "Print only the tables, warnings and errors");
-  run->add_flag("--vtk", vtk, "Also write the fields of every method as <mesh>.vti (ParaView)");
+  run->add_flag("--vtk", vtk,
+                "Also write the fields of every method as <mesh>.vti (Cartesian) or <mesh>.vtu (polyMesh) for "
+                "ParaView");
+  run->add_flag("--foam", foam,
+                "Also write OpenFOAM fields <mesh>/0/voidfraction_<method> and <mesh>/0/voidfraction on "
+                "polyMesh meshes");
 
   vfe::apps::StabilityCommand stab;
   std::string stab_step = "1/200";
@@ -123,6 +129,7 @@ int main(int argc, char** argv) {
       if (threads >= 0) opt.threads = threads;
       if (repeats >= 1) opt.repeats = repeats;
       opt.vtk = vtk;
+      opt.foam = foam;
       opt.logger = vfe::apps::make_app_logger(quiet);
       opt.table = &std::cout;
       vfe::apps::run_scene(cfg, opt);

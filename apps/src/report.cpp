@@ -83,17 +83,30 @@ std::string grid_range(std::int64_t lo, std::int64_t hi) {
 }
 
 void print_table(std::ostream& out, const std::string& title, const std::vector<ResultRow>& rows) {
-  const std::vector<Column> cols = {{"method", true},  {"ms/compute"},   {"particles/s"}, {"sub-el/s"},
-                                    {"grid"},          {"theta"},        {"max|err|"},    {"L1"},
-                                    {"vol err"},       {"dropped"}};
+  const std::vector<Column> cols = {{"method", true}, {"ms/compute"}, {"particles/s"}, {"sub-el/s"},
+                                    {"grid"},         {"theta"},      {"max|err|"},    {"L1"},
+                                    {"vol err"},      {"outside"},    {"dropped"}};
+  // NaN (no reference on this mesh) as "-".
+  auto f = [](const char* format, double v) { return std::isnan(v) ? std::string("-") : fmt(format, v); };
   std::vector<std::vector<std::string>> cells;
+  std::vector<std::string> notes;
   for (const auto& r : rows) {
+    const std::string label = r.label + (r.is_reference ? " *" : "");
+    if (r.skipped) {
+      std::vector<std::string> row(cols.size(), "-");
+      row[0] = label;
+      row[1] = "skipped";
+      cells.push_back(row);
+      notes.push_back(r.label + " skipped: " + r.note);
+      continue;
+    }
     const double dropped_rel = r.particle_volume > 0 ? r.dropped_volume / r.particle_volume : 0.0;
-    cells.push_back({r.label + (r.is_reference ? " *" : ""), fmt("%.3f", r.time_median_ms),
-                     fmt("%.3g", r.particles_per_s), fmt("%.3g", r.sub_elements_per_s),
-                     grid_range(r.particle_grid_min, r.particle_grid_max), fmt("%.3e", r.accuracy.theta),
-                     fmt("%.3e", r.accuracy.max_error), fmt("%.3e", r.accuracy.l1),
-                     fmt("%.1e", r.accuracy.volume_error), fmt("%.1e", dropped_rel)});
+    cells.push_back({label, fmt("%.3f", r.time_median_ms), fmt("%.3g", r.particles_per_s),
+                     fmt("%.3g", r.sub_elements_per_s), grid_range(r.particle_grid_min, r.particle_grid_max),
+                     f("%.3e", r.accuracy.theta), f("%.3e", r.accuracy.max_error), f("%.3e", r.accuracy.l1),
+                     f("%.1e", r.accuracy.volume_error), std::to_string(r.outside_particles),
+                     fmt("%.1e", dropped_rel)});
+    if (!r.note.empty()) notes.push_back(r.label + ": " + r.note);
   }
   std::vector<std::size_t> width(cols.size());
   for (std::size_t c = 0; c < cols.size(); ++c) {
@@ -118,7 +131,9 @@ void print_table(std::ostream& out, const std::string& title, const std::vector<
   for (auto w : width) total += w;
   out << std::string(total, '-') << '\n';
   for (const auto& row : cells) line(row);
-  out << "(* reference; errors against it; dropped = dropped volume / particle volume)\n";
+  out << "(* reference; errors against it; outside = particles partly outside the mesh; dropped = dropped "
+         "volume / particle volume)\n";
+  for (const auto& n : notes) out << "  " << n << '\n';
   out.flush();
 }
 
@@ -140,10 +155,16 @@ void write_json(const std::filesystem::path& file, const RunInfo& info, const st
   for (std::size_t i = 0; i < rows.size(); ++i) {
     const auto& r = rows[i];
     o << (i ? ",\n" : "\n") << "    {";
-    o << "\"mesh\": " << json_string(r.mesh) << ", \"method\": " << json_string(r.label)
+    o << "\"mesh\": " << json_string(r.mesh) << ", \"mesh_type\": " << json_string(r.mesh_type)
+      << ", \"method\": " << json_string(r.label)
       << ", \"engine_method\": " << json_string(r.method) << ", \"options\": " << json_string(r.options)
-      << ", \"reference\": " << (r.is_reference ? "true" : "false") << ", \"grid\": [" << r.grid[0] << ", "
-      << r.grid[1] << ", " << r.grid[2] << "], \"cells\": " << r.cells << ", \"cell_size\": " << num(r.cell_size)
+      << ", \"reference\": " << (r.is_reference ? "true" : "false")
+      << ", \"status\": " << json_string(r.skipped ? "skipped" : "ok") << ", \"note\": " << json_string(r.note);
+    if (r.mesh_type == "polymesh")
+      o << ", \"grid\": null";
+    else
+      o << ", \"grid\": [" << r.grid[0] << ", " << r.grid[1] << ", " << r.grid[2] << "]";
+    o << ", \"cells\": " << r.cells << ", \"cell_size\": " << num(r.cell_size)
       << ", \"chi\": " << num(r.chi) << ", \"particles\": " << r.particles << ", \"threads\": " << r.threads
       << ", \"repeats\": " << r.repeats << ", \"time_median_ms\": " << num(r.time_median_ms)
       << ", \"time_min_ms\": " << num(r.time_min_ms) << ", \"particles_per_s\": " << num(r.particles_per_s)
@@ -170,18 +191,22 @@ void write_csv(const std::filesystem::path& file, const RunInfo& info, const std
   o << "scene,mesh,method,engine_method,options,reference,nx,ny,nz,cells,cell_size,chi,particles,threads,"
        "repeats,time_median_ms,time_min_ms,particles_per_s,sub_elements_per_s,sub_elements,"
        "fast_path_particles,particle_grid_min,particle_grid_max,theta,max_error,l1,volume_error,"
-       "cells_compared,particle_volume,deposited_volume,dropped_volume,clipped_volume,outside_particles\n";
+       "cells_compared,particle_volume,deposited_volume,dropped_volume,clipped_volume,outside_particles,"
+       "mesh_type,status,note\n";
   for (const auto& r : rows) {
+    const bool poly = r.mesh_type == "polymesh";  // no nx, ny, nz
     o << csv_field(info.scene) << ',' << csv_field(r.mesh) << ',' << csv_field(r.label) << ','
       << csv_field(r.method) << ',' << csv_field(r.options) << ',' << (r.is_reference ? 1 : 0) << ','
-      << r.grid[0] << ',' << r.grid[1] << ',' << r.grid[2] << ',' << r.cells << ',' << cnum(r.cell_size) << ','
+      << (poly ? "" : std::to_string(r.grid[0])) << ',' << (poly ? "" : std::to_string(r.grid[1])) << ','
+      << (poly ? "" : std::to_string(r.grid[2])) << ',' << r.cells << ',' << cnum(r.cell_size) << ','
       << cnum(r.chi) << ',' << r.particles << ',' << r.threads << ',' << r.repeats << ','
       << cnum(r.time_median_ms) << ',' << cnum(r.time_min_ms) << ',' << cnum(r.particles_per_s) << ','
       << cnum(r.sub_elements_per_s) << ',' << r.sub_elements << ',' << r.fast_path_particles << ','
       << r.particle_grid_min << ',' << r.particle_grid_max << ',' << cnum(r.accuracy.theta) << ','
       << cnum(r.accuracy.max_error) << ',' << cnum(r.accuracy.l1) << ',' << cnum(r.accuracy.volume_error) << ','
       << r.accuracy.cells_compared << ',' << cnum(r.particle_volume) << ',' << cnum(r.deposited_volume) << ','
-      << cnum(r.dropped_volume) << ',' << cnum(r.clipped_volume) << ',' << r.outside_particles << '\n';
+      << cnum(r.dropped_volume) << ',' << cnum(r.clipped_volume) << ',' << r.outside_particles << ','
+      << csv_field(r.mesh_type) << ',' << (r.skipped ? "skipped" : "ok") << ',' << csv_field(r.note) << '\n';
   }
   std::ofstream out(file);
   check_stream(out, file);

@@ -15,13 +15,18 @@ namespace vfe::apps {
 /// One mesh x method result.
 struct ResultRow {
   std::string mesh;
+  std::string mesh_type = "cartesian";  ///< "cartesian" or "polymesh"
   std::string label;
   std::string method;
   std::string options;  ///< the engine's full option string for this run
   bool is_reference = false;
-  std::array<std::int64_t, 3> grid{0, 0, 0};
+  /// Not run on this mesh (the method is not supported there); note says why, and the
+  /// measures are NaN.
+  bool skipped = false;
+  std::string note;
+  std::array<std::int64_t, 3> grid{0, 0, 0};  ///< Cartesian cells per direction (0 on a polyMesh)
   std::int64_t cells = 0;
-  double cell_size = 0;  ///< cube root of the cell volume
+  double cell_size = 0;  ///< cube root of the (mean) cell volume
   double chi = 0;        ///< cell_size / mean particle diameter
   std::int64_t particles = 0;
   int threads = 0;  ///< threads used (0 in the config = all, resolved to the count)
@@ -60,7 +65,8 @@ struct RunInfo {
 /// "a-b", or "a" when a == b.
 std::string grid_range(std::int64_t lo, std::int64_t hi);
 
-/// Prints the table of one mesh's rows (a title line, a header, one line per row).
+/// Prints the table of one mesh's rows (a title line, a header, one line per row, then the
+/// reasons of skipped rows). Measures that are NaN (no reference) print as "-".
 void print_table(std::ostream& out, const std::string& title, const std::vector<ResultRow>& rows);
 
 void write_json(const std::filesystem::path& file, const RunInfo& info, const std::vector<ResultRow>& rows);

@@ -1,6 +1,7 @@
 #include "run.hpp"
 
 #include "dump_reader.hpp"
+#include "foam_writer.hpp"
 #include "vtk_writer.hpp"
 
 #include <vfe/engine.hpp>
@@ -13,6 +14,8 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <limits>
+#include <optional>
 #include <ostream>
 #include <thread>
 
@@ -80,6 +83,7 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
   if (opt.threads && *opt.threads < 0)
     throw ConfigError("threads must be 0 (all) or a count >= 1 (got " + std::to_string(*opt.threads) + ")");
   const bool vtk = opt.vtk || cfg.vtk;
+  const bool foam = opt.foam || cfg.foam;
   const fs::path out_dir = opt.output.value_or(cfg.output);
 
   // Options for every method: config threads, then the config's options, then --threads.
@@ -99,9 +103,10 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
     return m.label == reference.label && m.method == reference.method && m.options == reference.options;
   });
 
-  // Check every option string on a one-cell engine before reading the particles, so a
-  // typo fails at once. Each method starts from the engine's defaults, so one method's
+  // Polymesh folders, then every option string on a one-cell engine, before reading the
+  // particles, so a wrong path or a typo fails at once. Each method starts from the engine's defaults, so one method's
   // options never leak into the next.
+  check_mesh_paths(cfg);
   std::string defaults;
   int threads_used = 0;
   {
@@ -162,20 +167,42 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
                                "instead");
   for (double chi : cfg.chi) meshes.push_back(chi_mesh(chi, mean_d));
 
+  // The field the CFD solver reads as plain `voidfraction`: the method run with the engine's
+  // default options (e.g. plain pmm), else the first method.
+  const std::string default_options = merge_options({defaults, global});
+  std::string default_label = methods.empty() ? std::string() : methods.front().label;
+  for (const auto& m : methods)
+    if (engine_options(m) == default_options) {
+      default_label = m.label;
+      break;
+    }
+  const std::string reference_title =
+      reference.label + (reference.label == reference.method && reference.options.empty()
+                             ? std::string()
+                             : " (" + reference.method + (reference.options.empty() ? "" : " " + reference.options) + ")");
+
   for (std::size_t mesh_index = 0; mesh_index < meshes.size(); ++mesh_index) {
     const MeshSpec& mesh = meshes[mesh_index];
-    std::string note;
-    const vfe::CartesianGridSpec grid = resolve_grid(mesh, &frame.box, source, &note);
-    // A chi mesh keeps its spacing exactly, so extending past the box is expected there.
-    if (!note.empty()) {
-      if (mesh_index < cfg.meshes.size())
-        log->warn("mesh '{}': {}", mesh.name, note);
-      else
-        log->info("mesh '{}': {}", mesh.name, note);
-    }
+    const bool poly = mesh.type == "polymesh";
     const std::string mesh_where = "mesh '" + mesh.name + "'";
+    vfe::CartesianGridSpec grid;
     std::unique_ptr<vfe::Engine> engine;
-    with_context(mesh_where, [&] { engine = std::make_unique<vfe::Engine>(grid); });
+    if (poly) {
+      t0 = Clock::now();
+      with_context(mesh_where, [&] { engine = std::make_unique<vfe::Engine>(vfe::PolyMeshSpec{mesh.path.string()}); });
+      log->info("mesh '{}': read {} in {:.0f} ms", mesh.name, mesh.path.string(), ms_since(t0));
+    } else {
+      std::string note;
+      grid = resolve_grid(mesh, &frame.box, source, &note);
+      // A chi mesh keeps its spacing exactly, so extending past the box is expected there.
+      if (!note.empty()) {
+        if (mesh_index < cfg.meshes.size())
+          log->warn("mesh '{}': {}", mesh.name, note);
+        else
+          log->info("mesh '{}': {}", mesh.name, note);
+      }
+      with_context(mesh_where, [&] { engine = std::make_unique<vfe::Engine>(grid); });
+    }
     const auto ncells = static_cast<std::size_t>(engine->cell_count());
     std::vector<double> cell_volume(ncells), ref(ncells), solid(ncells), eps(ncells);
     engine->cell_volumes(cell_volume);
@@ -184,33 +211,147 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
     mean_cell_volume /= static_cast<double>(std::max<std::size_t>(ncells, 1));
     const double cell_size = std::cbrt(mean_cell_volume);
     const double chi = mean_d > 0 ? cell_size / mean_d : 0.0;
-    log->info("mesh '{}': {} x {} x {} cells of {} (chi = {:.2f})", mesh.name, grid.cells[0], grid.cells[1],
-              grid.cells[2], g3(cell_size), chi);
+    if (poly)
+      log->info("mesh '{}': polyMesh of {} cells, mean cell size {} (mean chi = {:.2f})", mesh.name, ncells,
+                g3(cell_size), chi);
+    else
+      log->info("mesh '{}': {} x {} x {} cells of {} (chi = {:.2f})", mesh.name, grid.cells[0], grid.cells[1],
+                grid.cells[2], g3(cell_size), chi);
+    const bool foam_here = foam && poly;
+    if (foam && !poly)
+      log->warn("mesh '{}' is a Cartesian grid: OpenFOAM field files are written for polymesh meshes only",
+                mesh.name);
 
-    std::vector<CellArray> vtk_arrays;
+    // Fields kept for the writers: label, void fraction, solid volume, options.
+    struct Field {
+      std::string label;
+      std::vector<double> eps, solid;
+      std::string options;
+    };
+    std::vector<Field> fields;
+    const bool keep_fields = vtk || foam_here;
 
-    // Reference, once.
-    double particle_volume = 0;
-    with_context(mesh_where + ", reference '" + reference.label + "'", [&] {
-      engine->configure(engine_options(reference));
-      t0 = Clock::now();
-      engine->compute(particles, ref);
-      log->info("  reference {}: {:.3f} ms", reference.label, ms_since(t0));
-      particle_volume = engine->last_report().particle_volume;
-      if (vtk && !reference_listed) {
-        engine->void_fraction(eps);
-        vtk_arrays.push_back({"voidfraction_" + reference.label, eps});
-        vtk_arrays.push_back({"solid_volume_" + reference.label, ref});
+    auto fill_row = [&](ResultRow& row, const MethodSpec& m, const std::string& opts) {
+      row.mesh = mesh.name;
+      row.mesh_type = poly ? "polymesh" : "cartesian";
+      row.label = m.label;
+      row.method = m.method;
+      row.options = opts;
+      row.grid = poly ? std::array<std::int64_t, 3>{0, 0, 0} : grid.cells;
+      row.cells = static_cast<std::int64_t>(ncells);
+      row.cell_size = cell_size;
+      row.chi = chi;
+      row.particles = frame.n;
+      row.threads = threads_used;
+    };
+    auto skipped_row = [&](const MethodSpec& m, const std::string& opts, const std::string& why) {
+      ResultRow row;
+      fill_row(row, m, opts);
+      row.skipped = true;
+      row.note = why;
+      const double nan = std::numeric_limits<double>::quiet_NaN();
+      row.time_median_ms = row.time_min_ms = row.particles_per_s = row.sub_elements_per_s = nan;
+      row.accuracy.theta = row.accuracy.max_error = row.accuracy.l1 = row.accuracy.volume_error = nan;
+      row.particle_volume = row.deposited_volume = row.dropped_volume = row.clipped_volume = nan;
+      return row;
+    };
+    /// Row of a finished compute: timings, report, and errors against the reference if any.
+    bool have_ref = false;
+    bool outside_warned = false;
+    auto measured_row = [&](const MethodSpec& m, const std::string& opts, const std::vector<double>& times,
+                            const std::vector<double>& field) {
+      const vfe::Report rep = engine->last_report();
+      ResultRow row;
+      fill_row(row, m, opts);
+      row.repeats = static_cast<int>(times.size());
+      row.time_median_ms = median(times);
+      row.time_min_ms = *std::min_element(times.begin(), times.end());
+      const double sec = row.time_median_ms * 1e-3;
+      row.particles_per_s = sec > 0 ? static_cast<double>(frame.n) / sec : 0.0;
+      row.sub_elements_per_s = sec > 0 ? static_cast<double>(rep.sub_elements) / sec : 0.0;
+      row.sub_elements = rep.sub_elements;
+      row.fast_path_particles = rep.fast_path_particles;
+      row.particle_grid_min = rep.particle_grid_min;
+      row.particle_grid_max = rep.particle_grid_max;
+      row.accuracy = vfe::compare_fields(field, have_ref ? ref : field, cell_volume, rep.particle_volume);
+      if (!have_ref) {
+        const double nan = std::numeric_limits<double>::quiet_NaN();
+        row.accuracy.theta = row.accuracy.max_error = row.accuracy.l1 = nan;
+        row.accuracy.cells_compared = 0;
       }
-    });
+      row.particle_volume = rep.particle_volume;
+      row.deposited_volume = rep.deposited_volume;
+      row.dropped_volume = rep.dropped_volume;
+      row.clipped_volume = rep.clipped_volume;
+      row.outside_particles = rep.outside_particles;
+      const std::string outside = engine->option("outside");
+      if (rep.outside_particles > 0 && !outside_warned) {
+        outside_warned = true;
+        log->warn("mesh '{}': {} of {} particles lie partly outside the mesh (outside={}{})", mesh.name,
+                  rep.outside_particles, frame.n, outside,
+                  outside == "drop" ? ": their outside volume is lost" : ": their outside volume is kept in the mesh");
+      }
+      if (rep.dropped_volume > 0)
+        log->warn("  {}: {} particle(s) lie partly outside mesh '{}'; outside={} dropped {} of their volume "
+                  "({:.3e} of the particle volume)",
+                  m.label, rep.outside_particles, mesh.name, outside, g3(rep.dropped_volume),
+                  rep.particle_volume > 0 ? rep.dropped_volume / rep.particle_volume : 0.0);
+      else if (rep.outside_particles > 0)
+        log->info("  {}: {} particle(s) lie partly outside mesh '{}' (outside={})", m.label, rep.outside_particles,
+                  mesh.name, outside);
+      if (rep.clipped_volume > 0)
+        log->info("  {}: the void fraction was clipped at alpha_min={} in some cells ({} of solid volume)", m.label,
+                  engine->option("alpha_min"), g3(rep.clipped_volume));
+      return row;
+    };
+    auto unsupported = [&](const vfe::Error& e) { return e.status() == VFE_ERROR_UNSUPPORTED; };
+
+    // Reference, once (and timed once more when it is not one of the methods).
+    std::optional<ResultRow> reference_row;
+    {
+      const std::string opts = engine_options(reference);
+      try {
+        engine->configure(opts);
+        t0 = Clock::now();
+        engine->compute(particles, ref);
+        const double first_ms = ms_since(t0);
+        have_ref = true;
+        log->info("  reference {}: {:.3f} ms", reference.label, first_ms);
+        if (!reference_listed) {
+          t0 = Clock::now();
+          engine->compute(particles, solid);
+          const std::vector<double> times{ms_since(t0)};
+          engine->void_fraction(eps);
+          reference_row = measured_row(reference, opts, times, solid);
+          reference_row->is_reference = true;
+          if (keep_fields) fields.push_back({reference.label, eps, ref, opts});
+        }
+      } catch (const vfe::Error& e) {
+        if (!unsupported(e)) throw vfe::Error(e.status(), mesh_where + ", reference '" + reference.label + "': " + e.what());
+        log->warn("mesh '{}': reference '{}' is not supported here ({}); errors against it are not computed",
+                  mesh.name, reference.label, e.what());
+        if (!reference_listed) {
+          reference_row = skipped_row(reference, opts, e.what());
+          reference_row->is_reference = true;
+        }
+      }
+    }
 
     std::vector<ResultRow> mesh_rows;
     for (const auto& m : methods) {
-      ResultRow row;
       const std::string opts = engine_options(m);
-      with_context(mesh_where + ", method '" + m.label + "'", [&] {
+      try {
         engine->configure(opts);
         engine->compute(particles, solid);  // warm-up
+      } catch (const vfe::Error& e) {
+        if (!unsupported(e)) throw vfe::Error(e.status(), mesh_where + ", method '" + m.label + "': " + e.what());
+        log->warn("mesh '{}': method '{}' skipped: {}", mesh.name, m.label, e.what());
+        ResultRow row = skipped_row(m, opts, e.what());
+        row.is_reference = m.label == reference.label;
+        mesh_rows.push_back(std::move(row));
+        continue;
+      }
+      with_context(mesh_where + ", method '" + m.label + "'", [&] {
         std::vector<double> times;
         times.reserve(static_cast<std::size_t>(repeats));
         for (int r = 0; r < repeats; ++r) {
@@ -220,72 +361,79 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
         }
         // The void fraction (untimed) also sets the report's clipped volume.
         engine->void_fraction(eps);
-        const vfe::Report rep = engine->last_report();
-        row.mesh = mesh.name;
-        row.label = m.label;
-        row.method = m.method;
-        row.options = opts;
+        ResultRow row = measured_row(m, opts, times, solid);
         row.is_reference = m.label == reference.label;
-        row.grid = grid.cells;
-        row.cells = static_cast<std::int64_t>(ncells);
-        row.cell_size = cell_size;
-        row.chi = chi;
-        row.particles = frame.n;
-        row.threads = threads_used;
-        row.repeats = repeats;
-        row.time_median_ms = median(times);
-        row.time_min_ms = *std::min_element(times.begin(), times.end());
-        const double sec = row.time_median_ms * 1e-3;
-        row.particles_per_s = sec > 0 ? static_cast<double>(frame.n) / sec : 0.0;
-        row.sub_elements_per_s = sec > 0 ? static_cast<double>(rep.sub_elements) / sec : 0.0;
-        row.sub_elements = rep.sub_elements;
-        row.fast_path_particles = rep.fast_path_particles;
-        row.particle_grid_min = rep.particle_grid_min;
-        row.particle_grid_max = rep.particle_grid_max;
-        row.accuracy = vfe::compare_fields(solid, ref, cell_volume, particle_volume);
-        row.particle_volume = rep.particle_volume;
-        row.deposited_volume = rep.deposited_volume;
-        row.dropped_volume = rep.dropped_volume;
-        row.clipped_volume = rep.clipped_volume;
-        row.outside_particles = rep.outside_particles;
-        log->info("  {}: {:.3f} ms per compute (median of {}), theta {:.3e}", m.label, row.time_median_ms,
-                  repeats, row.accuracy.theta);
-        if (rep.dropped_volume > 0)
-          log->warn("  {}: {} particle(s) lie partly outside mesh '{}'; outside={} dropped {} of their volume "
-                    "({:.3e} of the particle volume)",
-                    m.label, rep.outside_particles, mesh.name, engine->option("outside"), g3(rep.dropped_volume),
-                    rep.particle_volume > 0 ? rep.dropped_volume / rep.particle_volume : 0.0);
-        else if (rep.outside_particles > 0)
-          log->info("  {}: {} particle(s) lie partly outside mesh '{}' (outside={})", m.label,
-                    rep.outside_particles, mesh.name, engine->option("outside"));
-        if (rep.clipped_volume > 0)
-          log->info("  {}: the void fraction was clipped at alpha_min={} in some cells ({} of solid volume)",
-                    m.label, engine->option("alpha_min"), g3(rep.clipped_volume));
-        if (vtk) {
-          vtk_arrays.push_back({"voidfraction_" + m.label, eps});
-          vtk_arrays.push_back({"solid_volume_" + m.label, solid});
-        }
+        log->info("  {}: {:.3f} ms per compute (median of {}), theta {:.3e}", m.label, row.time_median_ms, repeats,
+                  row.accuracy.theta);
+        if (keep_fields) fields.push_back({m.label, eps, solid, opts});
+        mesh_rows.push_back(std::move(row));
       });
-      mesh_rows.push_back(std::move(row));
     }
+    if (reference_row) mesh_rows.push_back(std::move(*reference_row));
 
     if (opt.table) {
-      char title[512];
-      std::snprintf(title, sizeof title,
-                    "\n%s / mesh %s: %lld x %lld x %lld cells of %s (chi = %.2f), %lld particles, %d thread(s), "
-                    "median of %d, reference %s",
-                    cfg.name.c_str(), mesh.name.c_str(), static_cast<long long>(grid.cells[0]),
-                    static_cast<long long>(grid.cells[1]), static_cast<long long>(grid.cells[2]),
-                    g3(cell_size).c_str(), chi, static_cast<long long>(frame.n), threads_used, repeats,
-                    reference.label.c_str());
+      char title[768];
+      if (poly)
+        std::snprintf(title, sizeof title,
+                      "\n%s / mesh %s: polyMesh of %lld cells, mean cell size %s (mean chi = %.2f), %lld particles, "
+                      "%d thread(s), median of %d, reference %s",
+                      cfg.name.c_str(), mesh.name.c_str(), static_cast<long long>(ncells), g3(cell_size).c_str(), chi,
+                      static_cast<long long>(frame.n), threads_used, repeats, reference_title.c_str());
+      else
+        std::snprintf(title, sizeof title,
+                      "\n%s / mesh %s: %lld x %lld x %lld cells of %s (chi = %.2f), %lld particles, %d thread(s), "
+                      "median of %d, reference %s",
+                      cfg.name.c_str(), mesh.name.c_str(), static_cast<long long>(grid.cells[0]),
+                      static_cast<long long>(grid.cells[1]), static_cast<long long>(grid.cells[2]),
+                      g3(cell_size).c_str(), chi, static_cast<long long>(frame.n), threads_used, repeats,
+                      reference_title.c_str());
       print_table(*opt.table, title, mesh_rows);
     }
     result.rows.insert(result.rows.end(), mesh_rows.begin(), mesh_rows.end());
 
     if (vtk) {
-      const fs::path f = out_dir / (mesh.name + ".vti");
-      write_vti(f, grid, vtk_arrays);
-      log->info("wrote {}", f.string());
+      std::vector<CellArray> arrays;
+      for (const Field& f : fields) {
+        arrays.push_back({"voidfraction_" + f.label, f.eps});
+        arrays.push_back({"solid_volume_" + f.label, f.solid});
+      }
+      if (poly) {
+        const fs::path f = out_dir / (mesh.name + ".vtu");
+        std::vector<double> centres(3 * ncells);
+        engine->cell_centres(centres);
+        write_vtu(f, engine->poly_topology(), centres, arrays);
+        log->info("wrote {}", f.string());
+      } else {
+        const fs::path f = out_dir / (mesh.name + ".vti");
+        write_vti(f, grid, arrays);
+        log->info("wrote {}", f.string());
+      }
+    }
+    if (foam_here && !fields.empty()) {
+      const fs::path time_dir = out_dir / mesh.name / "0";
+      const std::vector<FoamPatch> patches = read_constraint_patches(find_polymesh_folder(mesh.path));
+      const Field* plain = nullptr;
+      for (const Field& f : fields) {
+        write_foam_scalar_field(time_dir / ("voidfraction_" + f.label), "voidfraction_" + f.label, "0", f.eps, patches,
+                                f.options);
+        if (f.label == default_label) plain = &f;
+      }
+      if (!plain)  // the default method was skipped here: the first listed method that ran
+        for (const auto& m : methods) {
+          auto it = std::find_if(fields.begin(), fields.end(), [&](const Field& f) { return f.label == m.label; });
+          if (it != fields.end()) {
+            plain = &*it;
+            break;
+          }
+        }
+      if (plain) {
+        write_foam_scalar_field(time_dir / "voidfraction", "voidfraction", "0", plain->eps, patches,
+                                plain->label + ": " + plain->options);
+        log->info("wrote {} (voidfraction from {}, and voidfraction_<method> for every method)", time_dir.string(),
+                  plain->label);
+      } else {
+        log->info("wrote {} (voidfraction_<method>)", time_dir.string());
+      }
     }
     // Reports so far, so a long run leaves results even if a later mesh fails.
     write_json(out_dir / "results.json", info, result.rows);

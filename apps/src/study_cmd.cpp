@@ -259,6 +259,11 @@ StudyResult run_study(const SceneConfig& cfg, const StudyOptions& opt) {
     if (!(x > 0)) throw ConfigError("chi must be > 0 (got " + std::to_string(x) + ")");
   if (chis.empty() && cfg.meshes.empty())
     throw ConfigError(source + ": the study has no grid; add chi: [0.75, 1, 2, 3] (or meshes)");
+  for (const MeshSpec& m : cfg.meshes)
+    if (m.type != "cartesian")
+      throw ConfigError(source + (m.line > 0 ? ":" + std::to_string(m.line) : std::string()) + ": mesh '" + m.name +
+                        "' is a " + m.type + " mesh; vfe study runs on Cartesian grids (chi or cartesian meshes): "
+                        "use vfe run for polyMesh scenes");
   const fs::path out_dir = opt.output.value_or(cfg.output);
 
   std::vector<std::string> global_parts = {"threads=" + std::to_string(cfg.threads), cfg.options};

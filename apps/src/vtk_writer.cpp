@@ -1,11 +1,15 @@
 #include "vtk_writer.hpp"
 
+#include <array>
 #include <bit>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <sstream>
+#include <type_traits>
+#include <unordered_map>
+#include <vector>
 #include <stdexcept>
 
 namespace vfe::apps {
@@ -41,6 +45,53 @@ std::string num(double v) {
   return buf;
 }
 
+template <class T>
+constexpr const char* vtk_type() {
+  if constexpr (std::is_same_v<T, double>)
+    return "Float64";
+  else if constexpr (std::is_same_v<T, std::int64_t>)
+    return "Int64";
+  else
+    return "UInt8";
+}
+
+/// One DataArray element: values inline as ASCII or as one base64 block (UInt64 byte count,
+/// then the raw values).
+template <class T>
+void data_array(std::ostream& o, const std::string& name, std::span<const T> values, int components,
+                VtkEncoding encoding, const char* indent = "        ") {
+  o << indent << "<DataArray type=\"" << vtk_type<T>() << "\" Name=\"" << name << "\"";
+  if (components > 1) o << " NumberOfComponents=\"" << components << "\"";
+  o << " format=\"" << (encoding == VtkEncoding::ascii ? "ascii" : "binary") << "\">\n";
+  if (encoding == VtkEncoding::ascii) {
+    const std::size_t per_line = components > 1 ? static_cast<std::size_t>(components) : 6;
+    for (std::size_t i = 0; i < values.size(); ++i) {
+      o << (i % per_line == 0 ? std::string(indent) + "  " : std::string(" "));
+      if constexpr (std::is_same_v<T, double>)
+        o << num(values[i]);
+      else
+        o << static_cast<long long>(values[i]);
+      if (i % per_line == per_line - 1) o << '\n';
+    }
+    if (values.size() % per_line != 0) o << '\n';
+  } else {
+    const std::uint64_t bytes = values.size() * sizeof(T);
+    std::vector<unsigned char> buf(sizeof bytes + bytes);
+    std::memcpy(buf.data(), &bytes, sizeof bytes);
+    if (bytes) std::memcpy(buf.data() + sizeof bytes, values.data(), bytes);
+    o << indent << "  " << base64(buf.data(), buf.size()) << '\n';
+  }
+  o << indent << "</DataArray>\n";
+}
+
+void write_text_file(const std::filesystem::path& file, const std::string& text) {
+  std::ofstream out(file, std::ios::binary);
+  if (!out) throw std::runtime_error(file.string() + ": cannot write the VTK file; check the output folder");
+  out << text;
+  out.flush();
+  if (!out) throw std::runtime_error(file.string() + ": writing the VTK file failed (disk full?)");
+}
+
 }  // namespace
 
 void write_vti(const std::filesystem::path& file, const vfe::CartesianGridSpec& g,
@@ -63,29 +114,109 @@ void write_vti(const std::filesystem::path& file, const vfe::CartesianGridSpec& 
   o << "    <Piece Extent=\"" << extent << "\">\n";
   o << "      <PointData>\n      </PointData>\n";
   o << "      <CellData" << (arrays.empty() ? "" : " Scalars=\"" + arrays.front().name + "\"") << ">\n";
-  for (const auto& a : arrays) {
-    o << "        <DataArray type=\"Float64\" Name=\"" << a.name << "\" NumberOfComponents=\"1\" format=\""
-      << (encoding == VtkEncoding::ascii ? "ascii" : "binary") << "\">\n";
-    if (encoding == VtkEncoding::ascii) {
-      for (std::size_t i = 0; i < a.values.size(); ++i)
-        o << (i % 6 == 0 ? "          " : " ") << num(a.values[i]) << (i % 6 == 5 ? "\n" : "");
-      if (a.values.size() % 6 != 0) o << '\n';
-    } else {
-      // Uncompressed inline binary: one base64 stream of the UInt64 byte count and the data.
-      const std::uint64_t bytes = a.values.size() * sizeof(double);
-      std::vector<unsigned char> buf(sizeof bytes + bytes);
-      std::memcpy(buf.data(), &bytes, sizeof bytes);
-      if (bytes) std::memcpy(buf.data() + sizeof bytes, a.values.data(), bytes);
-      o << "          " << base64(buf.data(), buf.size()) << '\n';
-    }
-    o << "        </DataArray>\n";
-  }
+  for (const auto& a : arrays) data_array<double>(o, a.name, a.values, 1, encoding);
   o << "      </CellData>\n    </Piece>\n  </ImageData>\n</VTKFile>\n";
-  std::ofstream out(file, std::ios::binary);
-  if (!out) throw std::runtime_error(file.string() + ": cannot write the VTK file; check the output folder");
-  out << o.str();
-  out.flush();
-  if (!out) throw std::runtime_error(file.string() + ": writing the VTK file failed (disk full?)");
+  write_text_file(file, o.str());
+}
+
+void write_vtu(const std::filesystem::path& file, const vfe::Engine::PolyTopology& t,
+               std::span<const double> cell_centres, const std::vector<CellArray>& arrays, VtkEncoding encoding) {
+  auto bad = [&](const std::string& what) {
+    return std::runtime_error("write_vtu: " + file.filename().string() + ": " + what);
+  };
+  if (t.points.size() % 3 != 0) throw bad("the point coordinates are not a multiple of 3");
+  const auto npoints = static_cast<std::int64_t>(t.points.size() / 3);
+  if (t.face_offsets.empty() || t.cell_face_offsets.empty()) throw bad("empty face or cell offsets");
+  const auto nfaces = static_cast<std::int64_t>(t.face_offsets.size()) - 1;
+  const auto ncells = static_cast<std::int64_t>(t.cell_face_offsets.size()) - 1;
+  if (static_cast<std::int64_t>(cell_centres.size()) != 3 * ncells)
+    throw bad("cell_centres has " + std::to_string(cell_centres.size()) + " values for " + std::to_string(ncells) +
+              " cells");
+  if (t.face_offsets.front() != 0 || t.face_offsets.back() != static_cast<std::int64_t>(t.face_points.size()))
+    throw bad("face_offsets do not span face_points");
+  if (t.cell_face_offsets.front() != 0 ||
+      t.cell_face_offsets.back() != static_cast<std::int64_t>(t.cell_faces.size()))
+    throw bad("cell_face_offsets do not span cell_faces");
+  for (std::int64_t f = 0; f < nfaces; ++f)
+    if (t.face_offsets[f + 1] - t.face_offsets[f] < 3) throw bad("face " + std::to_string(f) + " has < 3 points");
+  for (std::int64_t p : t.face_points)
+    if (p < 0 || p >= npoints) throw bad("a face refers to point " + std::to_string(p) + " of " +
+                                         std::to_string(npoints));
+  for (std::int64_t c = 0; c < ncells; ++c)
+    if (t.cell_face_offsets[c + 1] < t.cell_face_offsets[c]) throw bad("cell_face_offsets decrease");
+  for (std::int64_t f : t.cell_faces)
+    if (f < 0 || f >= nfaces) throw bad("a cell refers to face " + std::to_string(f) + " of " + std::to_string(nfaces));
+  for (const auto& a : arrays)
+    if (static_cast<std::int64_t>(a.values.size()) != ncells)
+      throw std::runtime_error("write_vtu: array '" + a.name + "' has " + std::to_string(a.values.size()) +
+                               " values, the mesh has " + std::to_string(ncells) + " cells");
+
+  // Each face's area vector (Newell) and mean point, to turn it outwards for each cell.
+  std::vector<std::array<double, 6>> face_geo(static_cast<std::size_t>(nfaces));
+  for (std::int64_t f = 0; f < nfaces; ++f) {
+    std::array<double, 6> g{};
+    const std::int64_t b = t.face_offsets[f], e = t.face_offsets[f + 1];
+    for (std::int64_t k = b; k < e; ++k) {
+      const double* p = &t.points[3 * t.face_points[k]];
+      const double* q = &t.points[3 * t.face_points[k + 1 < e ? k + 1 : b]];
+      g[0] += 0.5 * (p[1] * q[2] - p[2] * q[1]);
+      g[1] += 0.5 * (p[2] * q[0] - p[0] * q[2]);
+      g[2] += 0.5 * (p[0] * q[1] - p[1] * q[0]);
+      for (int d = 0; d < 3; ++d) g[3 + d] += p[d];
+    }
+    for (int d = 0; d < 3; ++d) g[3 + d] /= static_cast<double>(e - b);
+    face_geo[static_cast<std::size_t>(f)] = g;
+  }
+
+  std::vector<std::int64_t> connectivity, offsets, faces, faceoffsets;
+  offsets.reserve(static_cast<std::size_t>(ncells));
+  faceoffsets.reserve(static_cast<std::size_t>(ncells));
+  std::unordered_map<std::int64_t, char> seen;
+  for (std::int64_t c = 0; c < ncells; ++c) {
+    seen.clear();
+    const double* cc = &cell_centres[3 * c];
+    faces.push_back(t.cell_face_offsets[c + 1] - t.cell_face_offsets[c]);
+    for (std::int64_t k = t.cell_face_offsets[c]; k < t.cell_face_offsets[c + 1]; ++k) {
+      const std::int64_t f = t.cell_faces[k];
+      const auto& g = face_geo[static_cast<std::size_t>(f)];
+      const double out = g[0] * (g[3] - cc[0]) + g[1] * (g[4] - cc[1]) + g[2] * (g[5] - cc[2]);
+      const std::int64_t b = t.face_offsets[f], e = t.face_offsets[f + 1];
+      faces.push_back(e - b);
+      if (out >= 0)
+        for (std::int64_t i = b; i < e; ++i) faces.push_back(t.face_points[i]);
+      else
+        for (std::int64_t i = e; i-- > b;) faces.push_back(t.face_points[i]);
+      for (std::int64_t i = b; i < e; ++i)
+        if (seen.emplace(t.face_points[i], 0).second) connectivity.push_back(t.face_points[i]);
+    }
+    offsets.push_back(static_cast<std::int64_t>(connectivity.size()));
+    faceoffsets.push_back(static_cast<std::int64_t>(faces.size()));
+  }
+  const std::vector<std::uint8_t> types(static_cast<std::size_t>(ncells), 42);  // VTK_POLYHEDRON
+
+  const bool little = std::endian::native == std::endian::little;
+  std::ostringstream o;
+  o << "<?xml version=\"1.0\"?>\n";
+  o << "<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"" << (little ? "LittleEndian" : "BigEndian")
+    << "\" header_type=\"UInt64\">\n";
+  o << "  <UnstructuredGrid>\n";
+  o << "    <Piece NumberOfPoints=\"" << npoints << "\" NumberOfCells=\"" << ncells << "\">\n";
+  o << "      <PointData>\n      </PointData>\n";
+  o << "      <CellData" << (arrays.empty() ? "" : " Scalars=\"" + arrays.front().name + "\"") << ">\n";
+  for (const auto& a : arrays) data_array<double>(o, a.name, a.values, 1, encoding);
+  o << "      </CellData>\n";
+  o << "      <Points>\n";
+  data_array<double>(o, "Points", t.points, 3, encoding);
+  o << "      </Points>\n";
+  o << "      <Cells>\n";
+  data_array<std::int64_t>(o, "connectivity", connectivity, 1, encoding);
+  data_array<std::int64_t>(o, "offsets", offsets, 1, encoding);
+  data_array<std::uint8_t>(o, "types", types, 1, encoding);
+  data_array<std::int64_t>(o, "faces", faces, 1, encoding);
+  data_array<std::int64_t>(o, "faceoffsets", faceoffsets, 1, encoding);
+  o << "      </Cells>\n";
+  o << "    </Piece>\n  </UnstructuredGrid>\n</VTKFile>\n";
+  write_text_file(file, o.str());
 }
 
 }  // namespace vfe::apps

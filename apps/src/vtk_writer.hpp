@@ -1,9 +1,11 @@
-// VTK XML ImageData (.vti) writer for Cartesian cell fields, readable by ParaView.
+// VTK XML writers of cell fields, readable by ParaView: ImageData (.vti) for Cartesian
+// grids, UnstructuredGrid (.vtu) of polyhedra for OpenFOAM polyMeshes.
 #pragma once
 
 #include <vfe/engine.hpp>
 
 #include <filesystem>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -11,7 +13,7 @@ namespace vfe::apps {
 
 struct CellArray {
   std::string name;
-  std::vector<double> values;  ///< one per cell, cell (i, j, k) at i + nx*(j + ny*k)
+  std::vector<double> values;  ///< one per cell, cell (i, j, k) at i + nx*(j + ny*k) on a grid
 };
 
 enum class VtkEncoding { ascii, base64 };
@@ -20,5 +22,14 @@ enum class VtkEncoding { ascii, base64 };
 /// array has the wrong size or the file cannot be written.
 void write_vti(const std::filesystem::path& file, const vfe::CartesianGridSpec& grid,
                const std::vector<CellArray>& arrays, VtkEncoding encoding = VtkEncoding::base64);
+
+/// Writes cell data arrays on a polyhedral mesh as a .vtu file: every cell a VTK_POLYHEDRON
+/// (type 42) with its faces (the legacy `faces` / `faceoffsets` arrays), each face turned so
+/// its normal points out of the cell (decided with cell_centres, 3 values per cell).
+/// Throws std::runtime_error if the topology is inconsistent, an array has the wrong size
+/// or the file cannot be written.
+void write_vtu(const std::filesystem::path& file, const vfe::Engine::PolyTopology& topology,
+               std::span<const double> cell_centres, const std::vector<CellArray>& arrays,
+               VtkEncoding encoding = VtkEncoding::base64);
 
 }  // namespace vfe::apps

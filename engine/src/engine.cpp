@@ -128,7 +128,7 @@ struct Engine::Impl {
       // One template per shape, sized for its largest particles (the smallest chi, the
       // most sub-elements): shape templates are costly to cut, so none per size step.
       const std::int64_t k = detail::auto_step(sh.eq_diameter * sh.scale_max, smallest_cell_volume(), shape_rule);
-      sh.tmpl = &shape_template(id, 5 * detail::auto_ladder_value(k));
+      sh.tmpl = &shape_template(id, detail::auto_particle_count(k, shape_rule));
     }
   }
 
@@ -182,6 +182,7 @@ struct Engine::Impl {
   /// the flux criterion when the host gave U_s and dt_f, else DESIGN's default criterion.
   detail::AutoRule auto_rule(double cell_size) const {
     detail::AutoRule rule;
+    rule.max_grid = opts.particle_grid_max;
     rule.model = fitted_jump_model(opts.template_family == TemplateFamily::spherical ? "spherical" : "fibonacci");
     if (opts.superficial_velocity > 0 && opts.fluid_dt > 0)
       rule.criterion = flux_jump_criterion(opts.superficial_velocity, opts.fluid_dt, cell_size);
@@ -219,7 +220,7 @@ struct Engine::Impl {
     rule = auto_rule(std::cbrt(smallest_cell_volume()));
     bank_first = detail::auto_step(v.d_min, poly ? poly_vmax : grid.cell_volume(), rule);
     const std::int64_t last = detail::auto_step(v.d_max, smallest_cell_volume(), rule);
-    for (std::int64_t k = bank_first; k <= last; ++k) bank.push_back(&get_template(5 * detail::auto_ladder_value(k)));
+    for (std::int64_t k = bank_first; k <= last; ++k) bank.push_back(&get_template(detail::auto_particle_count(k, rule)));
     log->info("particle_grid=auto: chi {:.3g} to {:.3g}, {} to {} sub-elements per particle",
               std::cbrt(smallest_cell_volume()) / v.d_max, std::cbrt(poly ? poly_vmax : grid.cell_volume()) / v.d_min,
               bank.back()->size(), bank.front()->size());
@@ -655,8 +656,10 @@ double Engine::shape_volume(std::int32_t id) const {
 std::int64_t Engine::particle_grid_for(double diameter, double cell_size) const {
   const std::int64_t n = impl_->opts.particle_grid > 0
                              ? impl_->opts.particle_grid
-                             : 5 * detail::auto_ladder_value(detail::auto_step(
-                                       diameter, cell_size * cell_size * cell_size, impl_->auto_rule(cell_size)));
+                             : detail::auto_particle_count(
+                                   detail::auto_step(diameter, cell_size * cell_size * cell_size,
+                                                     impl_->auto_rule(cell_size)),
+                                   impl_->auto_rule(cell_size));
   return static_cast<std::int64_t>(impl_->get_template(n).size());
 }
 

@@ -15,7 +15,7 @@ namespace vfe {
 namespace {
 
 const char* const kKeys =
-    "method, particle_grid, template, orientation, outside, threads, deterministic, alpha_min, "
+    "method, particle_grid, particle_grid_max, template, orientation, outside, threads, deterministic, alpha_min, "
     "periodic, accumulation, seed, sigma, gamma, superficial_velocity, fluid_dt, log_level";
 
 [[noreturn]] void bad(std::string_view key, std::string_view value, std::string_view expected) {
@@ -102,6 +102,8 @@ void apply(Options& o, std::string_view key, std::string_view v) {
     o.method = parse_enum(key, v, kMethods);
   } else if (key == "particle_grid") {
     o.particle_grid = v == "auto" ? 0 : parse_int(key, v, 1, 10'000'000);
+  } else if (key == "particle_grid_max") {
+    o.particle_grid_max = parse_int(key, v, 1, 10'000'000);
   } else if (key == "template") {
     o.template_family = parse_enum(key, v, kTemplates);
   } else if (key == "orientation") {
@@ -171,6 +173,7 @@ std::string_view to_string(Method m) { return name_of(m, kMethods); }
 std::string option_value(const Options& o, std::string_view key) {
   if (key == "method") return name_of(o.method, kMethods);
   if (key == "particle_grid") return o.particle_grid == 0 ? "auto" : std::to_string(o.particle_grid);
+  if (key == "particle_grid_max") return std::to_string(o.particle_grid_max);
   if (key == "template") return name_of(o.template_family, kTemplates);
   if (key == "orientation") return name_of(o.orientation, kOrientations);
   if (key == "outside") return name_of(o.outside, kOutside);
@@ -196,7 +199,7 @@ std::string option_value(const Options& o, std::string_view key) {
 
 std::string format_options(const Options& o) {
   std::string out;
-  for (const char* key : {"method", "particle_grid", "template", "orientation", "outside", "threads",
+  for (const char* key : {"method", "particle_grid", "particle_grid_max", "template", "orientation", "outside", "threads",
                           "deterministic", "alpha_min", "periodic", "accumulation", "seed", "sigma", "gamma",
                           "superficial_velocity", "fluid_dt", "log_level"}) {
     if (!out.empty()) out += ' ';

@@ -19,6 +19,9 @@ inline constexpr double kVolumeCube = 0.80599597700823482;
 struct Options {
   Method method = Method::pmm;
   std::int64_t particle_grid = 0;  ///< 0 = auto
+  /// Largest particle grid auto may choose: below chi ~ 0.6 the stability formula asks for
+  /// tens of thousands of sub-elements per particle.
+  std::int64_t particle_grid_max = 20000;
   /// fibonacci: the stress test (docs/stability.md) shows it stable at a consistent n for
   /// every orientation, where the spherical family's rings of coplanar centroids are not.
   TemplateFamily template_family = TemplateFamily::fibonacci;

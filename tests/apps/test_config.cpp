@@ -152,7 +152,10 @@ TEST(ConfigErrors, BadMeshGeometry) {
             std::string::npos);
   EXPECT_NE(error_of(replaced(kGood, "    cells: [10, 10, 30]\n", "")).find("needs both 'spacing' and 'cells'"),
             std::string::npos);
-  EXPECT_NE(error_of(replaced(kGood, "type: cartesian", "type: polymesh")).find("not supported"), std::string::npos);
+  EXPECT_NE(error_of(replaced(kGood, "type: cartesian", "type: tetgen")).find("unknown mesh type 'tetgen'"),
+            std::string::npos);
+  EXPECT_NE(error_of(replaced(kGood, "type: cartesian", "type: polymesh")).find("unknown key 'origin'"),
+            std::string::npos);
   EXPECT_NE(error_of(replaced(kGood, "bounds: particles_box", "bounds: everything")).find("particles_box"),
             std::string::npos);
 }

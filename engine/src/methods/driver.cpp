@@ -18,7 +18,8 @@ std::int64_t auto_ladder_value(std::int64_t step) {
 
 std::int64_t auto_step(double diameter, double cell_volume, const AutoRule& rule) {
   const double chi = std::cbrt(cell_volume) / diameter;
-  const double n_min = std::min(n_min_model(chi, rule.model, rule.criterion), double(kMaxAutoGrid / 5));
+  const double cap = double(std::max<std::int64_t>(1, std::min(rule.max_grid, kMaxAutoGrid) / 5));
+  const double n_min = std::min(n_min_model(chi, rule.model, rule.criterion), cap);
   const auto k = std::max<std::int64_t>(1, static_cast<std::int64_t>(std::ceil(n_min * (1.0 - 1e-12))));
   if (k <= kLadderLinear) return k;
   return kLadderLinear +

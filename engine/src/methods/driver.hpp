@@ -72,6 +72,7 @@ struct Particle {
 struct AutoRule {
   JumpModel model;
   double criterion = kDefaultJumpCriterion;
+  std::int64_t max_grid = 20000;  ///< particle_grid_max
 };
 
 /// Largest particle grid `auto` may choose.
@@ -82,6 +83,10 @@ inline constexpr std::int64_t kMaxAutoGrid = 5 * 27 * 1000;
 /// templates). particle_grid = 5 * auto_ladder_value(step).
 std::int64_t auto_step(double diameter, double cell_volume, const AutoRule& rule);
 std::int64_t auto_ladder_value(std::int64_t step);
+/// Sub-elements auto uses at a step: 5 * auto_ladder_value(step), at most rule.max_grid.
+inline std::int64_t auto_particle_count(std::int64_t step, const AutoRule& rule) {
+  return std::min(5 * auto_ladder_value(step), std::max<std::int64_t>(rule.max_grid, 1));
+}
 
 /// PMM's templates for this compute: one fixed size, or one per auto step.
 struct TemplateBank {
