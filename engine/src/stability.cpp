@@ -37,8 +37,13 @@ std::string g6(double v) {
 struct Trajectory {
   double start[3];
   double dir[3];
+  double quat[4];  ///< orientation of a shaped particle (w, x, y, z)
   CartesianGridSpec grid;
 };
+
+/// Room around a shaped particle's path, in volume-equivalent diameters: the shape must lie
+/// within this distance of its origin (checked: the reference then has no outside particle).
+constexpr double kShapeMargin = 2.0;
 
 Trajectory make_trajectory(const StabilityOptions& o, std::uint64_t tseed, std::int64_t steps) {
   Trajectory t;
@@ -52,7 +57,14 @@ Trajectory make_trajectory(const StabilityOptions& o, std::uint64_t tseed, std::
   t.dir[1] = s * std::sin(phi);
   t.dir[2] = z;
   const double length = double(steps) * o.step * o.diameter;
-  const double r = 0.5 * o.diameter;
+  // A shape's orientation: uniform over the rotations (Shoemake), fixed per trajectory.
+  const double u1 = uniform01(state), u2 = uniform01(state), u3 = uniform01(state);
+  const double qa = std::sqrt(1.0 - u1), qb = std::sqrt(u1);
+  t.quat[0] = qb * std::cos(2.0 * std::numbers::pi * u3);
+  t.quat[1] = qa * std::sin(2.0 * std::numbers::pi * u2);
+  t.quat[2] = qa * std::cos(2.0 * std::numbers::pi * u2);
+  t.quat[3] = qb * std::sin(2.0 * std::numbers::pi * u3);
+  const double r = o.shape.empty() ? 0.5 * o.diameter : kShapeMargin * o.diameter;
   for (int d = 0; d < 3; ++d) {
     const double end = t.start[d] + length * t.dir[d];
     const double lo = std::min(t.start[d], end) - r, hi = std::max(t.start[d], end) + r;
@@ -105,11 +117,31 @@ StabilityReport stability_test(const StabilityOptions& in) {
   else if (o.particle_grids.empty())
     o.particle_grids = {"auto"};
 
-  const std::string base = "threads=1 method=" + o.method + " " + o.engine_options;
+  const bool shaped = !o.shape.empty();
+  if (shaped && o.reference_grid < 1)
+    bad("stability: the reference grid must be >= 1 (got " + std::to_string(o.reference_grid) + ")");
+  // A shape turns with its trajectory's quaternion, whatever the other options say.
+  const std::string base =
+      "threads=1 method=" + o.method + " " + o.engine_options + (shaped ? " orientation=given" : "");
+  const std::string reference_options =
+      shaped ? "threads=1 method=pmm orientation=given particle_grid=" + std::to_string(o.reference_grid)
+             : "threads=1 method=exact";
   auto grid_option = [&](const std::string& g) { return has_grid ? " particle_grid=" + g : std::string(); };
+  double shape_scale = 0;  // scale that gives the shape the volume-equivalent diameter o.diameter
   {
-    // Check every option string once, so a typo fails before any work.
+    // Check every option string (and the shape) once, so a typo fails before any work.
     Engine probe(CartesianGridSpec{});
+    if (shaped) {
+      std::int32_t id = 0;
+      try {
+        id = probe.add_shape(o.shape);
+      } catch (const Error& e) {
+        throw Error(e.status(), std::string("stability: --shape: ") + e.what());
+      }
+      const double eq_unit = std::cbrt(6.0 * probe.shape_volume(id) / std::numbers::pi);
+      shape_scale = o.diameter / eq_unit;
+      probe.configure(reference_options);
+    }
     for (const auto& g : o.particle_grids) {
       try {
         probe.configure(base + " seed=1" + grid_option(g));
@@ -130,26 +162,36 @@ StabilityReport stability_test(const StabilityOptions& in) {
   auto run_trajectory = [&](int ti) {
     const std::uint64_t tseed = trajectory_seed(o.seed, ti);
     const Trajectory t = make_trajectory(o, tseed, steps);
-    Engine exact(t.grid), method(t.grid);
-    exact.configure("threads=1 method=exact");
-    const std::size_t ncell = static_cast<std::size_t>(exact.cell_count());
+    Engine reference(t.grid), method(t.grid);
+    reference.configure(reference_options);
+    const std::size_t ncell = static_cast<std::size_t>(reference.cell_count());
     const double vc = h * h * h;
-    const double radius = 0.5 * o.diameter;
+    const double radius = shaped ? shape_scale : 0.5 * o.diameter;
+    const std::int32_t shape_id = 0;
     ParticleView pv;
     pv.n = 1;
     pv.radii = &radius;
+    if (shaped) {
+      reference.add_shape(o.shape);
+      method.add_shape(o.shape);
+      pv.shape_ids = &shape_id;
+      pv.orientations = t.quat;
+    }
     double centre[3];
     pv.centres = centre;
     auto place = [&](std::int64_t k) {
       const double a = double(k) * o.step * o.diameter;
       for (int d = 0; d < 3; ++d) centre[d] = t.start[d] + a * t.dir[d];
     };
-    // Exact field of every step (solid volume / cell volume).
+    // Reference field (exact, or the shape's fine pmm) of every step (solid volume / cell volume).
     std::vector<double> exact_fields((steps + 1) * ncell);
     for (std::int64_t k = 0; k <= steps; ++k) {
       place(k);
       std::span<double> f(exact_fields.data() + k * ncell, ncell);
-      exact.compute(pv, f);
+      reference.compute(pv, f);
+      if (shaped && reference.last_report().outside_particles > 0)
+        bad("stability: shape '" + o.shape + "' reaches farther than " + g6(kShapeMargin) +
+            " volume-equivalent diameters from its origin; centre it or use a more compact shape");
       for (double& x : f) x /= vc;
     }
     std::vector<double> prev(ncell), cur(ncell);

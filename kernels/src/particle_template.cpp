@@ -175,6 +175,20 @@ ParticleTemplate make_voxel_template(int n) {
   return t;
 }
 
+const Eigen::Matrix3d& banked_random_rotation(std::uint64_t index, std::uint64_t seed) {
+  constexpr std::size_t kBank = 4096;
+  static const std::vector<Eigen::Matrix3d> bank = [] {
+    std::vector<Eigen::Matrix3d> b(kBank);
+    for (std::size_t i = 0; i < kBank; ++i) b[i] = random_rotation(i, 0x243F6A8885A308D3ull);
+    return b;
+  }();
+  std::uint64_t z = index * 0x9E3779B97F4A7C15ull + seed * 0xD1B54A32D192ED03ull + 0x632BE59BD9B4E019ull;
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+  z ^= z >> 31;
+  return bank[z & (kBank - 1)];
+}
+
 // Built for AVX2 + FMA as well as the baseline; the loader picks the one the CPU runs.
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(__SANITIZE_ADDRESS__)
 __attribute__((target_clones("arch=x86-64-v3", "default")))

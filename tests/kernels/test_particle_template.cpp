@@ -117,3 +117,19 @@ TEST(RandomRotation, ProperOrthogonalDeterministicAndUniform) {
   // A uniform rotation sends an axis uniformly over the sphere: mean ~ 0 (sd 1/sqrt(3n)).
   EXPECT_LT((mean_axis / n).norm(), 5.0 / std::sqrt(3.0 * n));
 }
+
+TEST(RandomRotation, BankedRotationsAreProperDeterministicAndSpread) {
+  Eigen::Vector3d mean_axis = Eigen::Vector3d::Zero();
+  const int n = 20000;
+  int same_as_previous = 0;
+  for (int i = 0; i < n; ++i) {
+    const Eigen::Matrix3d& r = banked_random_rotation(i, 3);
+    EXPECT_LT((r * r.transpose() - Eigen::Matrix3d::Identity()).norm(), 1e-12);
+    mean_axis += r.col(2);
+    if (i > 0 && r == banked_random_rotation(i - 1, 3)) ++same_as_previous;
+  }
+  EXPECT_EQ(&banked_random_rotation(5, 3), &banked_random_rotation(5, 3));
+  EXPECT_NE(banked_random_rotation(5, 3), banked_random_rotation(5, 4));
+  EXPECT_LT(same_as_previous, 20);  // ~ n / 4096 expected
+  EXPECT_LT((mean_axis / n).norm(), 5.0 / std::sqrt(3.0 * n));
+}

@@ -1,6 +1,6 @@
-// Stability stress test of DESIGN section 5: single spheres moving in straight lines
-// across cells in small steps; per step and cell the change of the void fraction of a
-// method is compared with the exact one.
+// Stability stress test of DESIGN section 5: single spheres (or shaped particles) moving in
+// straight lines across cells in small steps; per step and cell the change of the void
+// fraction of a method is compared with the exact one (shapes: a fine pmm).
 #pragma once
 
 #include <cstdint>
@@ -31,6 +31,12 @@ struct StabilityOptions {
   double fluid_dt = 0;
   double diameter = 1.0;          ///< particle diameter, in the length unit of U_s * dt_f
   int threads = 0;                ///< trajectories run in parallel; 0 = all cores
+  /// A shaped particle instead of a sphere: an Engine::add_shape spec ("ellipsoid 1 0.6 0.4"),
+  /// scaled so its volume-equivalent diameter is `diameter`, turned by a fixed random
+  /// quaternion per trajectory (orientation=given). Its reference is pmm with
+  /// reference_grid sub-elements instead of exact. Empty = a sphere.
+  std::string shape;
+  std::int64_t reference_grid = 20000;  ///< particle_grid of the shapes' reference pmm
 };
 
 /// Result of one particle grid over all trajectories (maxima over trajectories, steps
@@ -40,7 +46,7 @@ struct StabilityResult {
   std::int64_t grid_min = 0;      ///< sub-elements per particle the engine used (min, max)
   std::int64_t grid_max = 0;
   double max_jump = 0;            ///< max |deps| of the method
-  double max_jump_exact = 0;      ///< max |deps| of exact over the same steps
+  double max_jump_exact = 0;      ///< max |deps| of exact (shapes: the reference pmm) over the same steps
   double excess_jump = 0;         ///< J = max (|deps| - |deps_exact|)
   double mean_excess_jump = 0;    ///< mean over trajectories of each trajectory's J
   /// J in units of one sub-element's jump pi / (6 n chi^3) (n = grid_max); 0 without a grid.

@@ -22,7 +22,7 @@ void pmm_particle(const Context& ctx, Scratch& s, const Particle& p) {
 Eigen::Matrix3d particle_rotation(const Options& opts, const Particle& p) {
   switch (opts.orientation) {
     case Orientation::none: break;
-    case Orientation::random: return kernels::random_rotation(std::uint64_t(p.index), opts.seed);
+    case Orientation::random: return kernels::banked_random_rotation(std::uint64_t(p.index), opts.seed);
     case Orientation::given: return kernels::rotation_from_quaternion(p.orientation);
   }
   return Eigen::Matrix3d::Identity();

@@ -50,6 +50,12 @@ Eigen::Vector3i spherical_layout(int n);
 /// Fixed pseudo-random rotation (uniform on SO(3)) for a particle index and a seed.
 Eigen::Matrix3d random_rotation(std::uint64_t index, std::uint64_t seed);
 
+/// The same kind of rotation drawn from a fixed bank of 4096 (built once per process):
+/// (index, seed) picks one by a hash. What PMM uses per particle: a lookup instead of a
+/// few sines and cosines; 4096 distinct orientations are plenty to break the alignment of
+/// template points with cell faces.
+const Eigen::Matrix3d& banked_random_rotation(std::uint64_t index, std::uint64_t seed);
+
 /// Rotation matrix of a quaternion (w, x, y, z), normalised first.
 inline Eigen::Matrix3d rotation_from_quaternion(const double* q) {
   return Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized().toRotationMatrix();
