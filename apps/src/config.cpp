@@ -228,12 +228,46 @@ MeshSpec mesh_entry(const Ctx& ctx, const YAML::Node& n, std::size_t index, cons
   return m;
 }
 
+/// One entry of the shapes list, its spec checked by registering it on probe.
+ShapeEntry shape_entry(const Ctx& ctx, const YAML::Node& n, std::size_t index, const fs::path& base_dir,
+                       vfe::Engine& probe) {
+  const std::string where0 = "shapes: entry " + std::to_string(index + 1);
+  if (!n.IsMap()) ctx.fail(n, where0 + " must be a map {name: NAME, spec: \"ellipsoid 1 0.6 0.4\"}");
+  check_keys(ctx, n, {"name", "spec"}, where0);
+  if (!n["name"]) ctx.fail(n, where0 + " has no 'name' key");
+  if (!n["spec"]) ctx.fail(n, where0 + " has no 'spec' key (sphere | ellipsoid A B C | superquadric A B C E1 E2 | "
+                                       "clump x y z r; ... | mesh FILE)");
+  ShapeEntry e;
+  e.line = n.Mark().is_null() ? 0 : n.Mark().line + 1;
+  e.name = scalar(ctx, n["name"], where0 + ": name");
+  const std::string where = "shapes: '" + e.name + "'";
+  if (!is_identifier_like(e.name))
+    ctx.fail(n["name"], where + ": the name may only have letters, digits, '_' and '-'");
+  e.spec = scalar(ctx, n["spec"], where + ": spec");
+  // A mesh file is relative to the config's folder.
+  std::istringstream in(e.spec);
+  std::string kind;
+  in >> kind;
+  if (kind == "mesh") {
+    std::string path;
+    std::getline(in >> std::ws, path);
+    while (!path.empty() && std::isspace(static_cast<unsigned char>(path.back()))) path.pop_back();
+    if (!path.empty() && !fs::path(path).is_absolute()) e.spec = "mesh " + (base_dir / path).lexically_normal().string();
+  }
+  try {
+    (void)probe.add_shape(e.spec);
+  } catch (const vfe::Error& err) {
+    ctx.fail(n["spec"], where + ": spec: " + err.what());
+  }
+  return e;
+}
+
 SceneConfig parse_root(const Ctx& ctx, const YAML::Node& root, const fs::path& base_dir) {
   if (!root.IsDefined() || root.IsNull()) ctx.fail("the config is empty; see configs/bed_mono.yaml for an example");
   if (!root.IsMap()) ctx.fail(root, "the config must be a map of keys (name, particles, meshes, methods, ...)");
   check_keys(ctx, root,
-             {"name", "particles", "meshes", "chi", "methods", "reference", "threads", "repeats", "options", "output",
-              "vtk", "foam"},
+             {"name", "shapes", "particles", "meshes", "chi", "methods", "reference", "threads", "repeats", "options",
+              "output", "vtk", "foam"},
              "the config");
   SceneConfig c;
   c.source = ctx.source;
@@ -241,15 +275,71 @@ SceneConfig parse_root(const Ctx& ctx, const YAML::Node& root, const fs::path& b
   c.name = root["name"] ? scalar(ctx, root["name"], "name") : fs::path(ctx.source).stem().string();
   if (c.name.empty()) c.name = "scene";
 
-  // particles
+  // shapes (before particles, which name them)
+  if (const YAML::Node sh = root["shapes"]) {
+    if (!sh.IsSequence() || sh.size() == 0)
+      ctx.fail(sh, "shapes must be a list of {name: NAME, spec: \"ellipsoid 1 0.6 0.4\"} entries");
+    vfe::Engine probe(vfe::CartesianGridSpec{});
+    for (std::size_t i = 0; i < sh.size(); ++i) {
+      ShapeEntry e = shape_entry(ctx, sh[i], i, base_dir, probe);
+      if (c.shape_index(e.name) >= 0) ctx.fail(sh[i], "two shapes are named '" + e.name + "'; give each its own name");
+      c.shapes.push_back(std::move(e));
+    }
+  }
+
+  // particles: a dump (file, frame, shape_by_type) or generated
   const YAML::Node p = root["particles"];
-  if (!p) ctx.fail(root, "no 'particles' key; add particles: {file: PATH_TO_DUMP}");
+  if (!p) ctx.fail(root, "no 'particles' key; add particles: {file: PATH_TO_DUMP} or particles: {generate: {...}}");
+  auto known_shape = [&](const YAML::Node& at, const std::string& name, const std::string& where) {
+    if (c.shape_index(name) >= 0) return;
+    std::vector<std::string> names;
+    for (const auto& e : c.shapes) names.push_back(e.name);
+    ctx.fail(at, where + ": shape '" + name + "' is not in the 'shapes' list" +
+                     (names.empty() ? std::string(" (there is none; add shapes: [{name: " + name + ", spec: \"...\"}])")
+                                    : " (known: " + list(names) + ")"));
+  };
   std::string file;
   if (p.IsScalar()) {
     file = p.as<std::string>();
+  } else if (p.IsMap() && p["generate"]) {
+    check_keys(ctx, p, {"generate"}, "particles (with generate, the particles are not read from a file)");
+    const YAML::Node g = p["generate"];
+    const std::vector<std::string> keys = {"count", "shape", "scale", "box", "seed", "orientations"};
+    if (!g.IsMap())
+      ctx.fail(g, "particles: generate must be a map {count: N, shape: NAME, scale: S, box: [x0, x1, y0, y1, z0, z1], "
+                  "seed: 1, orientations: random}");
+    check_keys(ctx, g, keys, "particles: generate");
+    for (const char* k : {"count", "shape", "scale", "box"})
+      if (!g[k]) ctx.fail(g, std::string("particles: generate has no '") + k + "' key (needs count, shape, scale, box)");
+    GenerateSpec gen;
+    gen.count = integer(ctx, g["count"], "particles: generate: count");
+    if (gen.count < 1 || gen.count > 100000000)
+      ctx.fail(g["count"], "particles: generate: count must be in [1, 100000000]");
+    gen.shape = scalar(ctx, g["shape"], "particles: generate: shape");
+    known_shape(g["shape"], gen.shape, "particles: generate: shape");
+    gen.scale = number(ctx, g["scale"], "particles: generate: scale");
+    if (!(gen.scale > 0)) ctx.fail(g["scale"], "particles: generate: scale must be > 0 (the shape's unit length)");
+    const YAML::Node b = g["box"];
+    if (!b.IsSequence() || b.size() != 6)
+      ctx.fail(b, "particles: generate: box must be [xlo, xhi, ylo, yhi, zlo, zhi]");
+    for (std::size_t i = 0; i < 6; ++i) gen.box[i] = number(ctx, b[i], "particles: generate: box");
+    for (int d = 0; d < 3; ++d)
+      if (!(gen.box[2 * d + 1] > gen.box[2 * d])) ctx.fail(b, "particles: generate: box needs lo < hi in every direction");
+    if (g["seed"]) {
+      const auto seed = integer(ctx, g["seed"], "particles: generate: seed");
+      if (seed < 0) ctx.fail(g["seed"], "particles: generate: seed must be >= 0");
+      gen.seed = static_cast<std::uint64_t>(seed);
+    }
+    if (g["orientations"]) {
+      gen.orientations = scalar(ctx, g["orientations"], "particles: generate: orientations");
+      if (gen.orientations != "random" && gen.orientations != "none")
+        ctx.fail(g["orientations"], "particles: generate: orientations must be 'random' (random unit quaternions) "
+                                    "or 'none' (every particle unrotated)");
+    }
+    c.generate = gen;
   } else if (p.IsMap()) {
-    check_keys(ctx, p, {"file", "frame"}, "particles");
-    if (!p["file"]) ctx.fail(p, "particles has no 'file' key; add file: PATH_TO_DUMP");
+    check_keys(ctx, p, {"file", "frame", "shape_by_type", "generate"}, "particles");
+    if (!p["file"]) ctx.fail(p, "particles has no 'file' key; add file: PATH_TO_DUMP (or generate: {...})");
     file = scalar(ctx, p["file"], "particles: file");
     if (p["frame"]) {
       const YAML::Node f = p["frame"];
@@ -261,11 +351,28 @@ SceneConfig parse_root(const Ctx& ctx, const YAML::Node& root, const fs::path& b
       else
         c.frame = integer(ctx, f, "particles: frame (first, last, or an index; negative counts from the end)");
     }
+    if (const YAML::Node m = p["shape_by_type"]) {
+      if (!m.IsMap() || m.size() == 0)
+        ctx.fail(m, "particles: shape_by_type must be a map of the dump's shape (or type) values to shape names, "
+                    "e.g. {1: ell, 2: cube}");
+      for (const auto& kv : m) {
+        const std::int64_t t = integer(ctx, kv.first, "particles: shape_by_type: a key (a type value)");
+        const std::string name = scalar(ctx, kv.second, "particles: shape_by_type: " + std::to_string(t));
+        known_shape(kv.second, name, "particles: shape_by_type: " + std::to_string(t));
+        c.shape_by_type[t] = name;
+      }
+    }
   } else {
-    ctx.fail(p, "particles must be a map {file: PATH, frame: last}");
+    ctx.fail(p, "particles must be a map {file: PATH, frame: last} or {generate: {...}}");
   }
-  if (file.empty()) ctx.fail(p, "particles: file is empty");
-  c.particles_file = fs::path(file).is_absolute() ? fs::path(file) : (base_dir / file).lexically_normal();
+  if (!c.generate) {
+    if (file.empty()) ctx.fail(p, "particles: file is empty");
+    c.particles_file = fs::path(file).is_absolute() ? fs::path(file) : (base_dir / file).lexically_normal();
+  }
+  if (!c.shapes.empty() && !c.shaped())
+    ctx.fail(root["shapes"], "shapes are listed but no particle uses them; add particles: shape_by_type: {1: " +
+                                 c.shapes.front().name + "} (dump) or particles: generate: {shape: " +
+                                 c.shapes.front().name + ", ...}");
 
   // chi: grids over the particles' box
   if (const YAML::Node chi = root["chi"]) {
@@ -315,7 +422,8 @@ SceneConfig parse_root(const Ctx& ctx, const YAML::Node& root, const fs::path& b
     c.methods.push_back(std::move(m));
   }
 
-  // reference: a label of the methods list, or a method (entry)
+  // reference: a label of the methods list, or a method (entry); exact takes spheres only
+  if (c.shaped()) c.reference = default_shape_reference();
   if (const YAML::Node r = root["reference"]) {
     bool found = false;
     if (r.IsScalar()) {
@@ -374,6 +482,14 @@ SceneConfig parse_root(const Ctx& ctx, const YAML::Node& root, const fs::path& b
 }
 
 }  // namespace
+
+int SceneConfig::shape_index(const std::string& shape_name) const {
+  for (std::size_t i = 0; i < shapes.size(); ++i)
+    if (shapes[i].name == shape_name) return static_cast<int>(i);
+  return -1;
+}
+
+MethodSpec default_shape_reference() { return {"pmm", "particle_grid=4000", "pmm_particle_grid-4000", {}}; }
 
 SceneConfig parse_config(const std::string& text, const fs::path& base_dir, const std::string& source) {
   Ctx ctx{source};

@@ -6,6 +6,7 @@
 #include <array>
 #include <cstdint>
 #include <filesystem>
+#include <map>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -47,16 +48,43 @@ struct MethodSpec {
   std::vector<std::string> settings;
 };
 
+/// A named particle shape of the scene (`shapes:` list). spec is an Engine::add_shape spec;
+/// a mesh file in it is resolved against the config's folder.
+struct ShapeEntry {
+  std::string name;
+  std::string spec;
+  int line = 0;  ///< line in the config file (1-based, 0 unknown)
+};
+
+/// Generated particles (`particles: {generate: {...}}`): count particles of one shape and
+/// scale, centres uniformly at random in box (seeded), random unit quaternions
+/// (orientations: random, run with orientation=given) or none (orientation=none).
+struct GenerateSpec {
+  std::int64_t count = 0;
+  std::string shape;                   ///< a name of the shapes list
+  double scale = 0;                    ///< the shape's scale (its unit length)
+  std::array<double, 6> box{};         ///< xlo xhi ylo yhi zlo zhi: where the centres lie
+  std::uint64_t seed = 1;
+  std::string orientations = "random";  ///< "random" or "none"
+};
+
 struct SceneConfig {
   std::string name;
   std::filesystem::path source;          ///< the config file (for messages)
-  std::filesystem::path particles_file;  ///< resolved against the config's folder
+  std::filesystem::path particles_file;  ///< resolved against the config's folder (empty when generated)
   std::int64_t frame = -1;               ///< 0-based, negative from the end (-1 = last)
+  /// Shapes of the scene, in order (shape id i = shapes[i] on every engine).
+  std::vector<ShapeEntry> shapes;
+  /// Dump particles: value of the dump's `shape` column (else `type`) -> shape name.
+  std::map<std::int64_t, std::string> shape_by_type;
+  std::optional<GenerateSpec> generate;  ///< particles generated instead of read
   std::vector<MeshSpec> meshes;
   /// Cartesian grids over the particles' box with cubic cells of spacing chi * mean particle
   /// diameter, one per value (named chi_<value>), after the listed meshes.
   std::vector<double> chi;
   std::vector<MethodSpec> methods;
+  /// Default: exact for spheres; for shaped particles (exact takes spheres only) pmm with
+  /// particle_grid=4000.
   MethodSpec reference{"exact", "", "exact", {}};
   int threads = 0;
   int repeats = 5;
@@ -64,7 +92,15 @@ struct SceneConfig {
   std::filesystem::path output;          ///< resolved against the config's folder
   bool vtk = false;                      ///< write <mesh>.vti / <mesh>.vtu
   bool foam = false;                     ///< write OpenFOAM voidfraction fields (polyMesh meshes)
+
+  /// True when the particles carry shapes (generated, or a dump with shape_by_type).
+  bool shaped() const { return generate.has_value() || !shape_by_type.empty(); }
+  /// Index of a shape name in shapes, -1 if unknown.
+  int shape_index(const std::string& shape_name) const;
 };
+
+/// The reference of shaped scenes when the config names none.
+MethodSpec default_shape_reference();
 
 /// Reads and validates a config file. Relative paths in it are relative to its folder.
 SceneConfig load_config(const std::filesystem::path& file);

@@ -341,6 +341,7 @@ bool DumpReader::next(DumpFrame& frame) {
                              std::string(kFixHint));
   const int col_id = find({"id"});
   const int col_type = find({"type"});
+  const int col_shape = find({"shape"});
   int vel[3] = {find({"vx"}), find({"vy"}), find({"vz"})};
   const bool has_vel = vel[0] >= 0 && vel[1] >= 0 && vel[2] >= 0;
   int quat[4] = {find({"quatw"}), find({"quati"}), find({"quatj"}), find({"quatk"})};
@@ -370,6 +371,7 @@ bool DumpReader::next(DumpFrame& frame) {
   if (has_quat) frame.orientations.reserve(4 * cap);
   if (col_id >= 0) frame.ids.reserve(cap);
   if (col_type >= 0) frame.types.reserve(cap);
+  if (col_shape >= 0) frame.shapes.reserve(cap);
   if (has_vel) frame.velocities.reserve(3 * cap);
 
   const std::size_t ncols = cols.size();
@@ -418,14 +420,15 @@ bool DumpReader::next(DumpFrame& frame) {
                               "', which is not an integer");
       frame.ids.push_back(*v);
     }
-    if (col_type >= 0) {
-      const auto v = parse_int(s.tokens[static_cast<std::size_t>(col_type)]);
+    auto int32_column = [&](int col, const char* name) {
+      const auto v = parse_int(s.tokens[static_cast<std::size_t>(col)]);
       if (!v || *v < std::numeric_limits<std::int32_t>::min() || *v > std::numeric_limits<std::int32_t>::max())
-        s.fail(s.line_no, "column 'type' has the value '" +
-                              std::string(s.tokens[static_cast<std::size_t>(col_type)]) +
-                              "', which is not an integer");
-      frame.types.push_back(static_cast<std::int32_t>(*v));
-    }
+        s.fail(s.line_no, std::string("column '") + name + "' has the value '" +
+                              std::string(s.tokens[static_cast<std::size_t>(col)]) + "', which is not an integer");
+      return static_cast<std::int32_t>(*v);
+    };
+    if (col_type >= 0) frame.types.push_back(int32_column(col_type, "type"));
+    if (col_shape >= 0) frame.shapes.push_back(int32_column(col_shape, "shape"));
     if (has_vel)
       for (int d = 0; d < 3; ++d) frame.velocities.push_back(number(vel[d], "velocity"));
   }

@@ -33,6 +33,7 @@ struct DumpFrame {
   std::vector<double> orientations;  ///< 4n quaternions (w, x, y, z), or empty
   std::vector<std::int64_t> ids;     ///< n, or empty without an id column
   std::vector<std::int32_t> types;   ///< n, or empty without a type column
+  std::vector<std::int32_t> shapes;  ///< n, or empty without a shape column (an integer per particle)
   std::vector<double> velocities;    ///< 3n, or empty without vx vy vz
   /// The ATOMS header's column names, in file order.
   std::vector<std::string> columns;

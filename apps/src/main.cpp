@@ -3,6 +3,7 @@
 //   vfe stability [--chi LIST] [--grid LIST] [--method M] [--template LIST] [--orientation LIST]
 //                 [--step S] [--trajectories N] [--seed N] [--cells C] [--sweep]
 //                 [--superficial-velocity U --fluid-dt DT [--diameter D]] [--output DIR]
+//                 [--shape SPEC [--reference-grid N]]
 //   vfe study CONFIG.yaml [--output DIR] [--threads N] [--repeats N] [--chi LIST] [--base FAMILY] [--quiet]
 //   vfe --version
 
@@ -86,6 +87,13 @@ int main(int argc, char** argv) {
   stability->add_option("--diameter", stab.diameter,
                         "Particle diameter in the length unit of U_s dt_f (dx = chi * diameter)")
       ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  stability->add_option("--shape", stab.shape,
+                        "A shaped particle instead of a sphere, e.g. \"ellipsoid 1 0.6 0.4\" (scaled to the volume-"
+                        "equivalent diameter, a random orientation per trajectory; reference: fine pmm)");
+  stability->add_option("--reference-grid", stab.reference_grid,
+                        "particle_grid of the reference pmm for --shape")
+      ->check(CLI::Range(std::int64_t{1}, std::int64_t{10000000}))
       ->capture_default_str();
   stability->add_flag("--sweep", stab.sweep, "Sweep the particle grids at every chi and find n_min(chi)");
   stability->add_option("-t,--threads", stab.threads, "Threads, 0 = all")->check(CLI::Range(0, 4096));

@@ -2,6 +2,7 @@
 
 #include "dump_reader.hpp"
 #include "foam_writer.hpp"
+#include "scene_particles.hpp"
 #include "vtk_writer.hpp"
 
 #include <vfe/engine.hpp>
@@ -130,13 +131,23 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
     return merge_options({defaults, global, "method=" + m.method, m.options});
   };
 
-  // Particles.
-  log->info("reading {}", cfg.particles_file.string());
+  // Particles (read or generated), and the options they need (orientation=given with
+  // quaternions) before the config's own.
+  if (cfg.generate)
+    log->info("generating {} particles of shape '{}'", cfg.generate->count, cfg.generate->shape);
+  else
+    log->info("reading {}", cfg.particles_file.string());
   auto t0 = Clock::now();
-  const DumpFrame frame = read_dump_frame(cfg.particles_file.string(), FrameSelector{cfg.frame});
+  const SceneParticles frame = load_particles(cfg);
   const double mean_d = frame.mean_diameter();
-  log->info("{} particles at timestep {} (mean diameter {}), read in {:.0f} ms", frame.n, frame.timestep,
-            g3(mean_d), ms_since(t0));
+  log->info("{} {}particles at timestep {} (mean {}diameter {}), {} in {:.0f} ms", frame.n,
+            frame.shaped() ? "shaped " : "", frame.timestep, frame.shaped() ? "volume-equivalent " : "", g3(mean_d),
+            cfg.generate ? "generated" : "read", ms_since(t0));
+  if (!frame.options.empty()) {
+    global_parts.insert(global_parts.begin() + 1, frame.options);
+    global = merge_options(global_parts);
+    log->info("particle options: {} (the config's options win)", frame.options);
+  }
   const vfe::ParticleView particles = frame.view();
 
   std::error_code ec;
@@ -147,7 +158,7 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
 
   RunInfo info;
   info.scene = cfg.name;
-  info.particles_file = cfg.particles_file.filename().string();
+  info.particles_file = frame.source_name;
   info.timestep = frame.timestep;
   info.particles = frame.n;
   info.particle_volume = frame.total_volume();
@@ -203,6 +214,7 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
       }
       with_context(mesh_where, [&] { engine = std::make_unique<vfe::Engine>(grid); });
     }
+    register_shapes(cfg, *engine);
     const auto ncells = static_cast<std::size_t>(engine->cell_count());
     std::vector<double> cell_volume(ncells), ref(ncells), solid(ncells), eps(ncells);
     engine->cell_volumes(cell_volume);

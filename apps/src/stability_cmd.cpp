@@ -80,6 +80,8 @@ vfe::StabilityOptions base_options(const StabilityCommand& c, double chi, const 
   o.fluid_dt = c.fluid_dt;
   o.diameter = c.diameter;
   o.threads = c.threads;
+  o.shape = c.shape;
+  o.reference_grid = c.reference_grid;
   return o;
 }
 
@@ -97,11 +99,11 @@ std::int64_t smallest_stable(const std::vector<const StabilityRow*>& rows, Pass&
 }
 
 void print_block(std::ostream& out, const std::string& title, const std::vector<StabilityRow>& rows,
-                 std::size_t first, bool flux) {
+                 std::size_t first, bool flux, bool shaped) {
   out << '\n' << title << '\n';
   char line[256];
   std::snprintf(line, sizeof line, "%-8s %7s %11s %8s %11s %11s %7s %6s", "grid", "n", "J", "J/unit",
-                "max|deps|", "max|exact|", "stable", "unst");
+                "max|deps|", shaped ? "max|ref|" : "max|exact|", "stable", "unst");
   out << line << (flux ? "   psi_max  psi_J  flux" : "") << '\n';
   for (std::size_t i = first; i < rows.size(); ++i) {
     const auto& r = rows[i].result;
@@ -117,12 +119,17 @@ void print_block(std::ostream& out, const std::string& title, const std::vector<
   }
 }
 
+/// The reference of the jumps: exact for spheres, a fine pmm for shapes.
+std::string reference_name(const StabilityCommand& c) {
+  return c.shape.empty() ? "exact" : "pmm particle_grid=" + std::to_string(c.reference_grid);
+}
+
 void write_csv(const fs::path& file, const StabilityCommand& c, const std::vector<StabilityRow>& rows) {
   std::ofstream out(file);
   check_stream(out, file);
   out << "method,template,orientation,chi,particle_grid,n_min_used,n,trajectories,step,cells,steps,seed,"
          "jump_criterion,J,J_mean,J_sub_elements,max_jump,max_jump_exact,stable,unstable_trajectories,"
-         "worst_trajectory,flux_criterion,psi_max,psi_J,flux_stable\n";
+         "worst_trajectory,flux_criterion,psi_max,psi_J,flux_stable,shape,reference\n";
   for (const auto& row : rows) {
     const auto& r = row.result;
     const double flux = c.superficial_velocity > 0 ? c.superficial_velocity * c.fluid_dt / (row.chi * c.diameter) : 0;
@@ -133,7 +140,8 @@ void write_csv(const fs::path& file, const StabilityCommand& c, const std::vecto
         << ',' << num(r.excess_jump) << ',' << num(r.mean_excess_jump) << ',' << num(r.excess_in_sub_elements)
         << ',' << num(r.max_jump) << ',' << num(r.max_jump_exact) << ',' << (r.stable ? 1 : 0) << ','
         << r.unstable_trajectories << ',' << r.worst_trajectory << ',' << num(flux) << ',' << num(r.psi_max)
-        << ',' << num(r.psi_excess) << ',' << (flux > 0 ? (r.flux_stable ? "1" : "0") : "") << '\n';
+        << ',' << num(r.psi_excess) << ',' << (flux > 0 ? (r.flux_stable ? "1" : "0") : "") << ','
+        << (c.shape.empty() ? "sphere" : "\"" + c.shape + "\"") << ',' << reference_name(c) << '\n';
   }
   check_stream(out, file);
 }
@@ -158,6 +166,8 @@ void write_json(const fs::path& file, const StabilityCommand& c, const Stability
   out << "{\n  \"version\": " << json_string(vfe_version()) << ",\n";
   out << "  \"method\": " << json_string(c.method) << ",\n";
   out << "  \"options\": " << json_string(c.options) << ",\n";
+  out << "  \"shape\": " << json_string(c.shape.empty() ? "sphere" : c.shape) << ",\n";
+  out << "  \"reference\": " << json_string(reference_name(c)) << ",\n";
   out << "  \"step\": " << jnum(c.step) << ",\n  \"cells\": " << jnum(c.cells)
       << ",\n  \"trajectories\": " << c.trajectories << ",\n  \"seed\": " << c.seed
       << ",\n  \"jump_criterion\": " << jnum(c.jump_criterion) << ",\n  \"superficial_velocity\": "
@@ -233,10 +243,12 @@ StabilityOutcome run_stability(const StabilityCommand& c) {
       const std::string eopts = family_options(c, tmpl, orient);
       probe.configure(defaults + " " + eopts);
       const std::string tname = has_grid ? probe.option("template") : "-";
-      const std::string oname = has_grid ? probe.option("orientation") : "-";
+      const std::string oname = !c.shape.empty() ? "given" : has_grid ? probe.option("orientation") : "-";
       for (double chi : c.chi) {
         const std::string title = c.method + (has_grid ? " template=" + tname + " orientation=" + oname : "") +
-                                  " chi=" + num(chi);
+                                  " chi=" + num(chi) +
+                                  (c.shape.empty() ? std::string()
+                                                   : " shape \"" + c.shape + "\" (reference " + reference_name(c) + ")");
         const std::size_t first = outcome.rows.size();
         auto run = [&](const std::vector<std::string>& grids) {
           vfe::StabilityOptions o = base_options(c, chi, eopts);
@@ -295,7 +307,7 @@ StabilityOutcome run_stability(const StabilityCommand& c) {
           outcome.n_min.push_back(nr);
           log->info("{}: n_min = {}{}", title, nr.n_min, flux ? ", flux n_min = " + std::to_string(nr.n_min_flux) : "");
         }
-        if (c.table) print_block(*c.table, title, outcome.rows, first, flux);
+        if (c.table) print_block(*c.table, title, outcome.rows, first, flux, !c.shape.empty());
       }
     }
   }

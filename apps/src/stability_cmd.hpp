@@ -32,6 +32,10 @@ struct StabilityCommand {
   double superficial_velocity = 0;        ///< U_s (flux form when > 0, with fluid_dt)
   double fluid_dt = 0;
   double diameter = 1.0;                  ///< particle diameter in the length unit of U_s * dt_f
+  /// A shaped particle (Engine::add_shape spec) instead of a sphere, of volume-equivalent
+  /// diameter `diameter`, turned by a fixed random quaternion per trajectory; empty = sphere.
+  std::string shape;
+  std::int64_t reference_grid = 20000;    ///< particle_grid of the shapes' reference pmm
   bool sweep = false;
   int threads = 0;
   std::filesystem::path output = "stability";

@@ -1,6 +1,7 @@
 #include "study_cmd.hpp"
 
 #include "dump_reader.hpp"
+#include "scene_particles.hpp"
 #include "report.hpp"
 #include "run.hpp"
 
@@ -302,11 +303,16 @@ StudyResult run_study(const SceneConfig& cfg, const StudyOptions& opt) {
     const unsigned hc = std::thread::hardware_concurrency();
     threads_used = t > 0 ? t : (hc ? static_cast<int>(hc) : 1);
   }
+  log->info("reading {}", cfg.generate ? std::string("generated particles") : cfg.particles_file.string());
+  const SceneParticles frame = load_particles(cfg);
+  // Options the particles need (orientation=given with quaternions), before the config's own.
+  if (!frame.options.empty()) {
+    global_parts.insert(global_parts.begin() + 1, frame.options);
+    global = merge_options(global_parts);
+    for (Job& job : jobs) job.options = merge_options({defaults, global, "method=" + job.spec.method, job.spec.options, job.setting});
+  }
   const std::string reference_options =
       merge_options({defaults, global, "method=" + cfg.reference.method, cfg.reference.options});
-
-  log->info("reading {}", cfg.particles_file.string());
-  const DumpFrame frame = read_dump_frame(cfg.particles_file.string(), FrameSelector{cfg.frame});
   const double mean_d = frame.mean_diameter();
   if (!chis.empty() && !(mean_d > 0))
     throw ConfigError(source + ": chi needs particles to size the cells (the frame has none)");
@@ -329,6 +335,7 @@ StudyResult run_study(const SceneConfig& cfg, const StudyOptions& opt) {
     std::string note;
     const vfe::CartesianGridSpec grid = resolve_grid(mesh, &frame.box, source, &note);
     vfe::Engine engine(grid);
+    register_shapes(cfg, engine);
     const auto ncells = static_cast<std::size_t>(engine.cell_count());
     std::vector<double> cell_volume(ncells), ref(ncells), solid(ncells);
     engine.cell_volumes(cell_volume);
@@ -417,7 +424,7 @@ StudyResult run_study(const SceneConfig& cfg, const StudyOptions& opt) {
 
   std::ostringstream js;
   js << "{\n  \"scene\": " << quoted(cfg.name) << ",\n  \"vfe_version\": " << quoted(vfe_version())
-     << ",\n  \"particles_file\": " << quoted(cfg.particles_file.filename().string())
+     << ",\n  \"particles_file\": " << quoted(frame.source_name)
      << ",\n  \"timestep\": " << frame.timestep << ",\n  \"particles\": " << frame.n
      << ",\n  \"mean_diameter\": " << num(mean_d, "null") << ",\n  \"threads\": " << threads_used
      << ",\n  \"repeats\": " << repeats << ",\n  \"options\": " << quoted(global)

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <numbers>
 #include <string>
 
 namespace {
@@ -174,4 +175,55 @@ TEST(Stability, ModelGivesOneSubElementAtLargeChiAndGrowsAsChiFalls) {
     EXPECT_GT(vfe::n_min_model(1.0, m, vfe::kDefaultJumpCriterion / 2), vfe::n_min_model(1.0, m));
   }
   EXPECT_THROW(vfe::fitted_jump_model("voxel"), vfe::Error);
+}
+
+// A shaped particle: scaled to the volume-equivalent diameter, a random orientation per
+// trajectory, measured against a fine pmm (exact takes spheres only).
+TEST(Stability, ShapedParticleAgainstAFinePmm) {
+  auto o = options(1.0, "pmm", 4);
+  o.shape = "ellipsoid 1 0.6 0.4";
+  o.reference_grid = 4000;
+  o.particle_grids = {"auto", "125"};
+  const auto rep = vfe::stability_test(o);
+  ASSERT_EQ(rep.results.size(), 2u);
+  const auto& fine = rep.results[0];
+  const auto& coarse = rep.results[1];
+  EXPECT_GT(fine.grid_max, coarse.grid_max);
+  EXPECT_NEAR(static_cast<double>(coarse.grid_max), 125.0, 5.0);
+  // The reference moves smoothly (its own sub-element jump pi/(6*4000) is ~1.3e-4), while
+  // the whole particle's volume pi/6 would be a jump of 0.52.
+  EXPECT_GT(fine.max_jump_exact, 0.0);
+  EXPECT_LT(fine.max_jump_exact, 0.02);
+  EXPECT_TRUE(fine.stable);
+  EXPECT_GT(coarse.excess_jump, fine.excess_jump);
+  // Deterministic.
+  const auto again = vfe::stability_test(o);
+  EXPECT_EQ(again.results[1].excess_jump, coarse.excess_jump);
+
+  // direct moves the whole volume at once: a jump of about pi/6 per cell crossing.
+  auto d = o;
+  d.method = "direct";
+  d.particle_grids.clear();
+  const auto rd = vfe::stability_test(d);
+  EXPECT_NEAR(rd.results[0].max_jump, std::numbers::pi / 6.0, 1e-9);
+  EXPECT_FALSE(rd.results[0].stable);
+}
+
+TEST(Stability, ShapeErrorsAreNamed) {
+  auto o = options(1.0, "pmm", 1);
+  o.shape = "ellipsoid 1 0.6";
+  try {
+    (void)vfe::stability_test(o);
+    FAIL() << "no error";
+  } catch (const vfe::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("--shape"), std::string::npos) << e.what();
+  }
+  o.shape = "clump 10 0 0 1";  // the body lies 5 diameters from its origin
+  o.reference_grid = 100;
+  try {
+    (void)vfe::stability_test(o);
+    FAIL() << "no error";
+  } catch (const vfe::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("reaches farther"), std::string::npos) << e.what();
+  }
 }
