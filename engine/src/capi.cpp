@@ -47,6 +47,19 @@ vfe_status null_argument(std::string& error, const char* what) {
   return VFE_ERROR_INVALID_ARGUMENT;
 }
 
+/// Builds an engine from a mesh spec; *out is set only on success.
+template <class MeshSpec>
+vfe_status create(const MeshSpec& spec, vfe_engine** out) {
+  vfe_engine* created = nullptr;
+  const vfe_status s = guarded(g_creation_error, [&] {
+    auto e = std::make_unique<vfe_engine>();
+    e->engine = std::make_unique<vfe::Engine>(spec);
+    created = e.release();
+  });
+  if (s == VFE_OK) *out = created;
+  return s;
+}
+
 }  // namespace
 
 extern "C" {
@@ -72,33 +85,19 @@ vfe_status vfe_create_cartesian(const double origin[3], const double spacing[3],
   if (!origin) return null_argument(g_creation_error, "origin");
   if (!spacing) return null_argument(g_creation_error, "spacing");
   if (!cells) return null_argument(g_creation_error, "cells");
-  vfe_engine* created = nullptr;
-  const vfe_status s = guarded(g_creation_error, [&] {
-    vfe::CartesianGridSpec spec;
-    for (int d = 0; d < 3; ++d) {
-      spec.origin[d] = origin[d];
-      spec.spacing[d] = spacing[d];
-      spec.cells[d] = cells[d];
-    }
-    auto e = std::make_unique<vfe_engine>();
-    e->engine = std::make_unique<vfe::Engine>(spec);
-    created = e.release();
-  });
-  if (s == VFE_OK) *out = created;
-  return s;
+  vfe::CartesianGridSpec spec;
+  for (int d = 0; d < 3; ++d) {
+    spec.origin[d] = origin[d];
+    spec.spacing[d] = spacing[d];
+    spec.cells[d] = cells[d];
+  }
+  return create(spec, out);
 }
 
 vfe_status vfe_create_polymesh(const char* polymesh_dir, vfe_engine** out) {
   if (!out) return null_argument(g_creation_error, "out");
   if (!polymesh_dir) return null_argument(g_creation_error, "polymesh_dir");
-  vfe_engine* created = nullptr;
-  const vfe_status s = guarded(g_creation_error, [&] {
-    auto e = std::make_unique<vfe_engine>();
-    e->engine = std::make_unique<vfe::Engine>(vfe::PolyMeshSpec{polymesh_dir});
-    created = e.release();
-  });
-  if (s == VFE_OK) *out = created;
-  return s;
+  return create(vfe::PolyMeshSpec{polymesh_dir}, out);
 }
 
 void vfe_destroy(vfe_engine* e) { delete e; }
