@@ -640,6 +640,17 @@ std::vector<MethodSpec> expand_settings(const std::vector<MethodSpec>& methods) 
   return out;
 }
 
+std::string scene_options(const SceneConfig& cfg, std::optional<int> threads, const std::string& particle_options,
+                          const std::string& source) {
+  std::vector<std::string> parts = {"threads=" + std::to_string(cfg.threads), particle_options, cfg.options};
+  if (threads) parts.push_back("threads=" + std::to_string(*threads));
+  try {
+    return merge_options(parts);
+  } catch (const ConfigError& e) {
+    throw ConfigError(source + ": options: " + e.what());
+  }
+}
+
 std::string merge_options(const std::vector<std::string>& parts) {
   std::vector<std::pair<std::string, std::string>> kv;
   for (const auto& part : parts) {

@@ -139,4 +139,10 @@ std::vector<MethodSpec> expand_settings(const std::vector<MethodSpec>& methods);
 /// one, keeping the first position). Throws ConfigError on a token without '='.
 std::string merge_options(const std::vector<std::string>& parts);
 
+/// Engine options every method of a scene starts from, later ones winning: the config's
+/// threads, the particle source's options (e.g. orientation=given for quaternions), the
+/// config's options, then a command-line thread count. Errors name `source`.
+std::string scene_options(const SceneConfig& cfg, std::optional<int> threads, const std::string& particle_options,
+                          const std::string& source);
+
 }  // namespace vfe::apps

@@ -87,15 +87,7 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
   const bool foam = opt.foam || cfg.foam;
   const fs::path out_dir = opt.output.value_or(cfg.output);
 
-  // Options for every method: config threads, then the config's options, then --threads.
-  std::vector<std::string> global_parts = {"threads=" + std::to_string(cfg.threads), cfg.options};
-  if (opt.threads) global_parts.push_back("threads=" + std::to_string(*opt.threads));
-  std::string global;
-  try {
-    global = merge_options(global_parts);
-  } catch (const ConfigError& e) {
-    throw ConfigError(source + ": options: " + e.what());
-  }
+  std::string global = scene_options(cfg, opt.threads, "", source);
 
   // The methods to time (one per setting), and the reference (timed too when it is one of them).
   std::vector<MethodSpec> methods = expand_settings(cfg.methods);
@@ -144,8 +136,7 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
             frame.shaped() ? "shaped " : "", frame.timestep, frame.shaped() ? "volume-equivalent " : "", g3(mean_d),
             cfg.generate ? "generated" : "read", ms_since(t0));
   if (!frame.options.empty()) {
-    global_parts.insert(global_parts.begin() + 1, frame.options);
-    global = merge_options(global_parts);
+    global = scene_options(cfg, opt.threads, frame.options, source);
     log->info("particle options: {} (the config's options win)", frame.options);
   }
   const vfe::ParticleView particles = frame.view();

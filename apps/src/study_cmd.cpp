@@ -267,14 +267,7 @@ StudyResult run_study(const SceneConfig& cfg, const StudyOptions& opt) {
                         "use vfe run for polyMesh scenes");
   const fs::path out_dir = opt.output.value_or(cfg.output);
 
-  std::vector<std::string> global_parts = {"threads=" + std::to_string(cfg.threads), cfg.options};
-  if (opt.threads) global_parts.push_back("threads=" + std::to_string(*opt.threads));
-  std::string global;
-  try {
-    global = merge_options(global_parts);
-  } catch (const ConfigError& e) {
-    throw ConfigError(source + ": options: " + e.what());
-  }
+  std::string global = scene_options(cfg, opt.threads, "", source);
 
   // Every (family, setting), checked on a one-cell engine before the particles are read.
   std::vector<Job> jobs;
@@ -307,8 +300,7 @@ StudyResult run_study(const SceneConfig& cfg, const StudyOptions& opt) {
   const SceneParticles frame = load_particles(cfg);
   // Options the particles need (orientation=given with quaternions), before the config's own.
   if (!frame.options.empty()) {
-    global_parts.insert(global_parts.begin() + 1, frame.options);
-    global = merge_options(global_parts);
+    global = scene_options(cfg, opt.threads, frame.options, source);
     for (Job& job : jobs) job.options = merge_options({defaults, global, "method=" + job.spec.method, job.spec.options, job.setting});
   }
   const std::string reference_options =

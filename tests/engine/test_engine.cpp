@@ -1,6 +1,8 @@
 // Engine on Cartesian grids: conservation, agreement with brute force, determinism,
 // outside policies, bad input.
 #include <vfe/engine.hpp>
+
+#include "particles.hpp"
 #include <vfe/measures.hpp>
 #include <vfe/stability.hpp>
 
@@ -20,33 +22,12 @@
 using vfe::CartesianGridSpec;
 using vfe::Engine;
 using vfe::ParticleView;
+using vfe::test::grid;
+using vfe::test::Particles;
+using vfe::test::run;
+using vfe::test::total;
 
 namespace {
-
-struct Particles {
-  std::vector<double> centres, radii, quats;
-  ParticleView view() const {
-    ParticleView v;
-    v.n = static_cast<std::int64_t>(radii.size());
-    v.centres = centres.data();
-    v.radii = radii.data();
-    v.orientations = quats.empty() ? nullptr : quats.data();
-    return v;
-  }
-  double volume() const {
-    double s = 0;
-    for (double r : radii) s += 4.0 / 3.0 * std::numbers::pi * r * r * r;
-    return s;
-  }
-};
-
-CartesianGridSpec grid(double h, std::int64_t nx, std::int64_t ny, std::int64_t nz) {
-  CartesianGridSpec g;
-  g.origin = {0, 0, 0};
-  g.spacing = {h, h, h};
-  g.cells = {nx, ny, nz};
-  return g;
-}
 
 /// n spheres of radius in [rmin, rmax] wholly inside [0, L]^3 (fixed seed).
 Particles random_particles(int n, double L, double rmin, double rmax, unsigned seed) {
@@ -59,19 +40,6 @@ Particles random_particles(int n, double L, double rmin, double rmax, unsigned s
     for (int d = 0; d < 3; ++d) p.centres.push_back(r + (L - 2 * r) * u01(rng));
   }
   return p;
-}
-
-std::vector<double> run(Engine& e, const Particles& p, const std::string& options) {
-  e.configure(options);
-  std::vector<double> out(e.cell_count(), -1.0);
-  e.compute(p.view(), out);
-  return out;
-}
-
-double total(const std::vector<double>& f) {
-  double s = 0;
-  for (double x : f) s += x;
-  return s;
 }
 
 }  // namespace

@@ -2,6 +2,8 @@
 // conservation under every outside policy, divided's 29 points, gaussian weights,
 // porous_cube's limits, the bigParticle rule, cloud-in-cell, the voxel template, options.
 #include <vfe/engine.hpp>
+
+#include "particles.hpp"
 #include <vfe/measures.hpp>
 
 #include <gtest/gtest.h>
@@ -19,38 +21,15 @@
 using vfe::CartesianGridSpec;
 using vfe::Engine;
 using vfe::ParticleView;
+using vfe::test::grid;
+using vfe::test::Particles;
+using vfe::test::run;
+using vfe::test::total;
 
 namespace {
 
 const char* const kAllMethods[] = {"direct",      "pmm",          "exact",    "divided", "gaussian",
                                    "porous_cube", "big_particle", "trilinear"};
-
-struct Particles {
-  std::vector<double> centres, radii;
-  ParticleView view() const {
-    ParticleView v;
-    v.n = static_cast<std::int64_t>(radii.size());
-    v.centres = centres.data();
-    v.radii = radii.data();
-    return v;
-  }
-  double volume() const {
-    double s = 0;
-    for (double r : radii) s += 4.0 / 3.0 * std::numbers::pi * r * r * r;
-    return s;
-  }
-  void add(double x, double y, double z, double r) {
-    centres.insert(centres.end(), {x, y, z});
-    radii.push_back(r);
-  }
-};
-
-CartesianGridSpec grid(double h, std::int64_t nx, std::int64_t ny, std::int64_t nz) {
-  CartesianGridSpec g;
-  g.spacing = {h, h, h};
-  g.cells = {nx, ny, nz};
-  return g;
-}
 
 /// n spheres of radius in [rmin, rmax] with centres anywhere in [lo, hi]^3 (fixed seed).
 Particles random_particles(int n, double lo, double hi, double rmin, double rmax, unsigned seed) {
@@ -59,19 +38,6 @@ Particles random_particles(int n, double lo, double hi, double rmin, double rmax
   Particles p;
   for (int i = 0; i < n; ++i) p.add(uc(rng), uc(rng), uc(rng), ur(rng));
   return p;
-}
-
-std::vector<double> run(Engine& e, const Particles& p, const std::string& options) {
-  e.configure(options);
-  std::vector<double> out(e.cell_count(), -1.0);
-  e.compute(p.view(), out);
-  return out;
-}
-
-double total(const std::vector<double>& f) {
-  double s = 0;
-  for (double x : f) s += x;
-  return s;
 }
 
 double sphere(double r) { return 4.0 / 3.0 * std::numbers::pi * r * r * r; }

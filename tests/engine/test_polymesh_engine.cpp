@@ -2,6 +2,8 @@
 // cells, conservation on the cylinder and snappyHexMesh meshes with real particles.
 #include <vfe/engine.hpp>
 
+#include "particles.hpp"
+
 #include <gtest/gtest.h>
 
 #include <zlib.h>
@@ -13,25 +15,12 @@
 #include <string>
 #include <vector>
 
+using vfe::test::Particles;
+using vfe::test::total;
+
 namespace {
 
 const std::string kData = std::string(VFE_SOURCE_DIR) + "/data/";
-
-struct Particles {
-  std::vector<double> centres, radii;
-  vfe::ParticleView view() const {
-    vfe::ParticleView v;
-    v.n = static_cast<std::int64_t>(radii.size());
-    v.centres = centres.data();
-    v.radii = radii.data();
-    return v;
-  }
-  double volume() const {
-    double s = 0;
-    for (double r : radii) s += 4.0 / 3.0 * std::numbers::pi * r * r * r;
-    return s;
-  }
-};
 
 /// x y z radius of the settled LIGGGHTS bed (columns 3-6 of the dump).
 Particles packed_bed() {
@@ -55,12 +44,6 @@ Particles packed_bed() {
   }
   if (f) gzclose(f);
   return p;
-}
-
-double total(const std::vector<double>& f) {
-  double s = 0;
-  for (double x : f) s += x;
-  return s;
 }
 
 }  // namespace

@@ -8,25 +8,12 @@
 namespace vfe::detail {
 
 void gaussian_particle(const Context& ctx, Scratch& s, const Particle& p) {
-  const CartesianGrid& grid = ctx.grid;
   const double sigma = ctx.opts.sigma * 2.0 * p.radius;
-  const Eigen::Vector3d half = Eigen::Vector3d::Constant(kernels::kGaussianCut * sigma);
   // The fast path holds when the whole cut kernel lies in one cell.
-  if (const std::int64_t cell = single_cell(grid, p.centre, half); cell >= 0) {
-    ++s.fast_path;
-    s.add(cell, p.volume);
-    return;
-  }
-  const Window w = make_window(grid, p.centre, half);
-  for (int d = 0; d < 3; ++d) {
-    window_nodes(grid, w, d, s.nodes[d]);
-    s.axis[d].resize(static_cast<std::size_t>(w.m[d]));
-    // In cell units: centre and sigma divided by the spacing.
-    kernels::gaussian_axis_weights(grid.axis_coordinate(d, p.centre[d]), sigma / grid.spacing()[d],
-                                   s.nodes[d].data(), static_cast<int>(w.m[d]), s.axis[d].data());
-  }
-  s.sub_elements += static_cast<std::int64_t>(w.size());
-  deposit_separable(ctx, s, p, w);
+  spread_separable(ctx, s, p, Eigen::Vector3d::Constant(kernels::kGaussianCut * sigma),
+                   [sigma](double u, double h, const double* nodes, int m, double* out) {
+                     kernels::gaussian_axis_weights(u, sigma / h, nodes, m, out);  // in cell units
+                   });
 }
 
 }  // namespace vfe::detail

@@ -21,4 +21,28 @@ inline void deposit_separable(const Context& ctx, Scratch& s, const Particle& p,
   emit_window(ctx, s, p, w, ctx.opts.outside);
 }
 
+/// A kernel of half-width `half` around the centre: the whole particle to one cell when
+/// the kernel lies inside it (fast path), else axis_weights(u, h, nodes, m, out) per axis
+/// (u: centre in cell units, h: spacing, nodes: the window's m + 1 node coordinates in cell
+/// units) and their product into the window.
+template <class AxisWeights>
+void spread_separable(const Context& ctx, Scratch& s, const Particle& p, const Eigen::Vector3d& half,
+                      AxisWeights&& axis_weights) {
+  const CartesianGrid& grid = ctx.grid;
+  if (const std::int64_t cell = single_cell(grid, p.centre, half); cell >= 0) {
+    ++s.fast_path;
+    s.add(cell, p.volume);
+    return;
+  }
+  const Window w = make_window(grid, p.centre, half);
+  for (int d = 0; d < 3; ++d) {
+    window_nodes(grid, w, d, s.nodes[d]);
+    s.axis[d].resize(static_cast<std::size_t>(w.m[d]));
+    axis_weights(grid.axis_coordinate(d, p.centre[d]), grid.spacing()[d], s.nodes[d].data(),
+                 static_cast<int>(w.m[d]), s.axis[d].data());
+  }
+  s.sub_elements += static_cast<std::int64_t>(w.size());
+  deposit_separable(ctx, s, p, w);
+}
+
 }  // namespace vfe::detail

@@ -1,0 +1,57 @@
+// Helpers shared by the engine tests: a set of spheres as SoA arrays, grids, a compute.
+#pragma once
+
+#include <vfe/engine.hpp>
+
+#include <cstdint>
+#include <numbers>
+#include <string>
+#include <vector>
+
+namespace vfe::test {
+
+struct Particles {
+  std::vector<double> centres, radii, quats;
+  ParticleView view() const {
+    ParticleView v;
+    v.n = static_cast<std::int64_t>(radii.size());
+    v.centres = centres.data();
+    v.radii = radii.data();
+    v.orientations = quats.empty() ? nullptr : quats.data();
+    return v;
+  }
+  double volume() const {
+    double s = 0;
+    for (double r : radii) s += 4.0 / 3.0 * std::numbers::pi * r * r * r;
+    return s;
+  }
+  void add(double x, double y, double z, double r) {
+    centres.insert(centres.end(), {x, y, z});
+    radii.push_back(r);
+  }
+};
+
+/// nx x ny x nz cubic cells of size h from the origin.
+inline CartesianGridSpec grid(double h, std::int64_t nx, std::int64_t ny, std::int64_t nz) {
+  CartesianGridSpec g;
+  g.origin = {0, 0, 0};
+  g.spacing = {h, h, h};
+  g.cells = {nx, ny, nz};
+  return g;
+}
+
+/// Configures e and returns its solid-volume field for p.
+inline std::vector<double> run(Engine& e, const Particles& p, const std::string& options) {
+  e.configure(options);
+  std::vector<double> out(e.cell_count(), -1.0);
+  e.compute(p.view(), out);
+  return out;
+}
+
+inline double total(const std::vector<double>& f) {
+  double s = 0;
+  for (double x : f) s += x;
+  return s;
+}
+
+}  // namespace vfe::test
