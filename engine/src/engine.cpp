@@ -357,7 +357,7 @@ struct Engine::Impl {
       case Method::trilinear: driver = detail::trilinear_particle; break;
     }
     const bool shape_direct = opts.method == Method::direct;
-    if (poly && opts.method != Method::direct && opts.method != Method::pmm)
+    if (poly && opts.method != Method::direct && opts.method != Method::pmm && opts.method != Method::exact)
       throw Error(VFE_ERROR_UNSUPPORTED, "method=" + std::string(to_string(opts.method)) +
                                              " is not available on a polyMesh; use pmm (a large particle_grid "
                                              "serves as the reference) or direct");
@@ -373,6 +373,9 @@ struct Engine::Impl {
           const RegisteredShape& sh = shapes[pv.shape_ids[p]];
           detail::polymesh_particle(poly_ctx, s, detail::Particle{p, c, r, sh.shape.volume() * r * r * r, q},
                                     shape_direct ? nullptr : sh.tmpl, sh.shape.centroid());
+        } else if (opts.method == Method::exact) {
+          detail::polymesh_exact_particle(poly_ctx, s,
+                                          detail::Particle{p, c, r, 4.0 / 3.0 * std::numbers::pi * r * r * r, q});
         } else {
           detail::polymesh_particle(poly_ctx, s,
                                     detail::Particle{p, c, r, 4.0 / 3.0 * std::numbers::pi * r * r * r, q},

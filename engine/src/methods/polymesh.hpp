@@ -19,4 +19,10 @@ struct PolyContext {
 void polymesh_particle(const PolyContext& ctx, Scratch& s, const Particle& p, const kernels::ParticleTemplate* t,
                        const Eigen::Vector3d& centroid);
 
+/// exact on a polyMesh: the exact overlap volume of sphere p with every cell it reaches
+/// (each cell bounded by its faces split into triangles at the face centres, as the
+/// point-in-cell test and OpenFOAM's geometry do); what lies beyond the mesh follows the
+/// outside policy.
+void polymesh_exact_particle(const PolyContext& ctx, Scratch& s, const Particle& p);
+
 }  // namespace vfe::detail
