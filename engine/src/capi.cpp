@@ -173,4 +173,15 @@ vfe_status vfe_last_report(const vfe_engine* e, vfe_report* out) {
   return VFE_OK;
 }
 
+vfe_status vfe_last_report_value(const vfe_engine* e, const char* key, double* out) {
+  if (!e) return null_argument(g_creation_error, "engine");
+  auto& error = const_cast<vfe_engine*>(e)->last_error;
+  if (!key) return null_argument(error, "key");
+  if (!out) return null_argument(error, "out");
+  double value = 0;
+  const vfe_status s = guarded(error, [&] { value = e->engine->last_report_value(key); });
+  if (s == VFE_OK) *out = value;
+  return s;
+}
+
 }  // extern "C"

@@ -63,10 +63,38 @@ struct Engine::Impl {
   bool have_field = false;
 
   tbb::enumerable_thread_specific<Scratch> scratch;
-  tbb::enumerable_thread_specific<std::vector<double>> private_fields;
+  /// Per-thread field (cell_count + 1 values, zero between computes) and, for
+  /// touched_only=1, the cells it holds volume in.
+  struct PrivateField {
+    std::vector<double> field;
+    std::vector<std::int64_t> touched;
+  };
+  tbb::enumerable_thread_specific<PrivateField> private_fields;
+  std::vector<std::int64_t> touched;  ///< touched_only: the cells of `solid` that may be non-zero
+  bool touched_valid = false;         ///< false: any cell of `solid` may be non-zero
+
+  /// incremental=1: what each particle looked like at its last deposit and its deposits,
+  /// by blocks of kSortedBlock particles (deposits of particle i of a block:
+  /// deposits[offsets[i] .. offsets[i + 1])).
+  struct DepositBlock {
+    std::vector<Deposit> deposits;
+    std::vector<std::uint32_t> offsets;
+    std::vector<std::uint32_t> moved;  ///< particles of the block redone by this compute
+  };
+  struct IncrementalState {
+    bool valid = false;  ///< false after configure, add_shape or a change of layout
+    std::int64_t n = 0;
+    bool with_shapes = false, with_orientations = false;
+    std::vector<double> particles;  ///< x, y, z, r (then w, x, y, z with orientations)
+    std::vector<std::int32_t> shape_ids;
+    std::vector<DepositBlock> blocks, next;
+    double dropped = 0;
+  } inc;
+  std::int64_t moved_particles = 0;  ///< of the last compute (all of them unless incremental)
   std::vector<std::vector<Deposit>> blocks;       // sorted accumulation
   std::vector<std::pair<std::int64_t, std::int64_t>> sort_keys;  // (cell, sequence)
   std::vector<double> sort_values;
+  std::vector<std::int64_t> sort_offsets;  // start of each block's deposits
 
   std::map<std::pair<int, std::int64_t>, std::unique_ptr<ParticleTemplate>> template_cache;
   const ParticleTemplate divided = kernels::make_divided_template();
@@ -342,8 +370,6 @@ struct Engine::Impl {
     log->debug("compute: {} particles, method={}, accumulation={}", pv.n, to_string(opts.method), int(acc));
 
     for (Scratch& s : scratch) s.reset_counters();
-    work.assign(ncell + 1, 0.0);
-
     const detail::Context ctx{grid, opts, detail::TemplateBank{bank, bank_first, opts.particle_grid > 0, rule}, divided};
     void (*driver)(const detail::Context&, Scratch&, const detail::Particle&) = nullptr;
     switch (opts.method) {
@@ -397,50 +423,52 @@ struct Engine::Impl {
       driver(ctx, s, particle);
     };
 
-    switch (acc) {
-      case Accumulation::privatised:
-      case Accumulation::automatic: {
-        for_particles(pv.n, [&](std::int64_t b, std::int64_t e) {
-          Scratch& s = scratch.local();
-          std::vector<double>& f = private_fields.local();
-          if (f.size() != static_cast<std::size_t>(ncell + 1)) f.assign(ncell + 1, 0.0);
-          for (std::int64_t p = b; p < e; ++p) {
-            particle(s, p);
-            for (const Deposit& d : s.deposits) f[d.cell] += d.volume;
-          }
-        });
-        // Merge over cells in parallel, copies innermost; leave the copies zeroed for reuse.
-        arena->execute([&] {
-          tbb::parallel_for(tbb::blocked_range<std::int64_t>(0, ncell + 1, 4096),
-                            [&](const tbb::blocked_range<std::int64_t>& r) {
-                              for (auto& f : private_fields) {
-                                if (f.size() != static_cast<std::size_t>(ncell + 1)) continue;
-                                for (std::int64_t c = r.begin(); c < r.end(); ++c) {
-                                  work[c] += f[c];
-                                  f[c] = 0.0;
-                                }
-                              }
-                            });
-        });
-        break;
+    moved_particles = pv.n;
+    Report rep;
+    if (opts.incremental) {
+      rep = accumulate_incremental(pv, cs, rs, qs, v.volume, particle);
+    } else if (opts.touched_only && !opts.deterministic) {
+      rep = accumulate_touched(pv, cs, rs, v.volume, particle);
+    } else {
+      work.assign(ncell + 1, 0.0);
+      switch (acc) {
+        case Accumulation::privatised:
+        case Accumulation::automatic: accumulate_private(pv.n, particle); break;
+        case Accumulation::atomic: {
+          for_particles(pv.n, [&](std::int64_t b, std::int64_t e) {
+            Scratch& s = scratch.local();
+            for (std::int64_t p = b; p < e; ++p) {
+              particle(s, p);
+              for (const Deposit& d : s.deposits)
+                std::atomic_ref<double>(work[d.cell]).fetch_add(d.volume, std::memory_order_relaxed);
+            }
+          });
+          break;
+        }
+        case Accumulation::sorted: accumulate_sorted(pv.n, particle); break;
       }
-      case Accumulation::atomic: {
-        for_particles(pv.n, [&](std::int64_t b, std::int64_t e) {
-          Scratch& s = scratch.local();
-          for (std::int64_t p = b; p < e; ++p) {
-            particle(s, p);
-            for (const Deposit& d : s.deposits)
-              std::atomic_ref<double>(work[d.cell]).fetch_add(d.volume, std::memory_order_relaxed);
-          }
-        });
-        break;
-      }
-      case Accumulation::sorted: accumulate_sorted(pv.n, particle); break;
+      rep = gather_report(pv, cs, rs, v.volume);
+      rep.dropped_volume = work[ncell];
+      work.resize(ncell);
+      solid.swap(work);
+      touched_valid = false;
+      rep.deposited_volume = sum_cells(solid, nullptr);
+      rep.clipped_volume = clipped_volume(solid, nullptr);
     }
+    have_field = true;
+    report = rep;
+    std::copy(solid.begin(), solid.end(), out.begin());
+    log->info("computed {} particles with {}: {} moved, {} sub-elements, {} on the fast path, {} outside", pv.n,
+              to_string(opts.method), moved_particles, rep.sub_elements, rep.fast_path_particles,
+              rep.outside_particles);
+  }
 
+  /// The counters of this compute from the threads' scratch. Throws the outside=error
+  /// failure: callers call it before they change the field.
+  Report gather_report(const ParticleView& pv, std::int64_t cs, std::int64_t rs, double particle_volume) {
     Report rep{};
     rep.particles = pv.n;
-    rep.particle_volume = v.volume;
+    rep.particle_volume = particle_volume;
     rep.particle_grid_min = std::numeric_limits<std::int64_t>::max();
     std::int64_t first_error = std::numeric_limits<std::int64_t>::max();
     for (const Scratch& s : scratch) {
@@ -464,18 +492,241 @@ struct Engine::Impl {
           << " particles do); enlarge the mesh or choose outside=nearest, centre or drop";
       throw Error(VFE_ERROR_OUT_OF_DOMAIN, msg.str());
     }
-    rep.dropped_volume = work[ncell];
-    work.resize(ncell);
-    double deposited = 0;
-    for (double x : work) deposited += x;
-    rep.deposited_volume = deposited;
-    rep.clipped_volume = clipped_volume(work);
-    solid.swap(work);
-    have_field = true;
-    report = rep;
-    std::copy(solid.begin(), solid.end(), out.begin());
-    log->info("computed {} particles with {}: {} sub-elements, {} on the fast path, {} outside", pv.n,
-              to_string(opts.method), rep.sub_elements, rep.fast_path_particles, rep.outside_particles);
+    return rep;
+  }
+
+  /// Sum of the field over the given cells (all cells when null).
+  double sum_cells(const std::vector<double>& field, const std::vector<std::int64_t>* cells) const {
+    double sum = 0;
+    if (cells)
+      for (const std::int64_t c : *cells) sum += field[c];
+    else
+      for (const double x : field) sum += x;
+    return sum;
+  }
+
+  std::vector<double>& private_field() {
+    std::vector<double>& f = private_fields.local().field;
+    if (f.size() != static_cast<std::size_t>(ncells() + 1)) f.assign(ncells() + 1, 0.0);
+    return f;
+  }
+
+  /// Per-thread fields, then a merge over all cells in parallel, copies innermost; leaves
+  /// the copies zeroed for reuse.
+  template <class ParticleFn>
+  void accumulate_private(std::int64_t n, ParticleFn& particle) {
+    const std::int64_t ncell = ncells();
+    for_particles(n, [&](std::int64_t b, std::int64_t e) {
+      Scratch& s = scratch.local();
+      std::vector<double>& f = private_field();
+      for (std::int64_t p = b; p < e; ++p) {
+        particle(s, p);
+        for (const Deposit& d : s.deposits) f[d.cell] += d.volume;
+      }
+    });
+    arena->execute([&] {
+      tbb::parallel_for(tbb::blocked_range<std::int64_t>(0, ncell + 1, 4096),
+                        [&](const tbb::blocked_range<std::int64_t>& r) {
+                          for (auto& pf : private_fields) {
+                            std::vector<double>& f = pf.field;
+                            if (f.size() != static_cast<std::size_t>(ncell + 1)) continue;
+                            for (std::int64_t c = r.begin(); c < r.end(); ++c) {
+                              work[c] += f[c];
+                              f[c] = 0.0;
+                            }
+                          }
+                        });
+    });
+  }
+
+  /// touched_only=1: per-thread fields that list the cells they touch; only those cells
+  /// (and the ones the last compute touched) are cleared, merged and summed.
+  template <class ParticleFn>
+  Report accumulate_touched(const ParticleView& pv, std::int64_t cs, std::int64_t rs, double volume,
+                            ParticleFn& particle) {
+    const std::int64_t ncell = ncells();
+    for_particles(pv.n, [&](std::int64_t b, std::int64_t e) {
+      Scratch& s = scratch.local();
+      std::vector<double>& f = private_field();
+      std::vector<std::int64_t>& t = private_fields.local().touched;
+      for (std::int64_t p = b; p < e; ++p) {
+        particle(s, p);
+        for (const Deposit& d : s.deposits) {
+          double& x = f[d.cell];
+          if (x == 0.0) t.push_back(d.cell);
+          x += d.volume;
+        }
+      }
+    });
+    Report rep;
+    try {
+      rep = gather_report(pv, cs, rs, volume);
+    } catch (...) {
+      for (auto& pf : private_fields) {
+        for (const std::int64_t c : pf.touched) pf.field[c] = 0.0;
+        pf.touched.clear();
+      }
+      throw;
+    }
+    if (touched_valid)
+      for (const std::int64_t c : touched) solid[c] = 0.0;
+    else
+      solid.assign(ncell, 0.0);
+    touched.clear();
+    double dropped = 0;
+    for (auto& pf : private_fields) {
+      for (const std::int64_t c : pf.touched) {
+        double& x = pf.field[c];
+        if (c == ncell) {
+          dropped += x;
+        } else {
+          if (solid[c] == 0.0) touched.push_back(c);
+          solid[c] += x;
+        }
+        x = 0.0;
+      }
+      pf.touched.clear();
+    }
+    touched_valid = true;
+    rep.dropped_volume = dropped;
+    rep.deposited_volume = sum_cells(solid, &touched);
+    rep.clipped_volume = clipped_volume(solid, &touched);
+    return rep;
+  }
+
+  /// incremental=1: particles that did not move keep their deposits and cost one
+  /// comparison; a moved particle's old deposits are subtracted and its new ones added.
+  /// Particles appended since the last compute (a growing bed) are new; a smaller
+  /// count, a change of shapes or orientations being given, or a configure or add_shape
+  /// call starts afresh.
+  template <class ParticleFn>
+  Report accumulate_incremental(const ParticleView& pv, std::int64_t cs, std::int64_t rs, std::int64_t qs,
+                                double volume, ParticleFn& particle) {
+    const std::int64_t n = pv.n, ncell = ncells();
+    const bool with_orientations = opts.orientation == Orientation::given;
+    const bool with_shapes = pv.shape_ids != nullptr;
+    const bool fresh = !inc.valid || n < inc.n || inc.with_shapes != with_shapes ||
+                       inc.with_orientations != with_orientations;
+    const std::int64_t old_n = fresh ? 0 : inc.n;  // particles with kept deposits
+    const std::int64_t stride = with_orientations ? 8 : 4;
+    const std::int64_t nblocks = (n + kSortedBlock - 1) / kSortedBlock;
+    if (fresh) {
+      inc.valid = false;
+      inc.blocks.assign(nblocks, {});
+    }
+    inc.blocks.resize(nblocks);
+    inc.particles.resize(n * stride);
+    inc.shape_ids.resize(with_shapes ? n : 0);
+    inc.next.resize(nblocks);
+    const double tol = opts.move_tolerance;
+    auto moved = [&](std::int64_t p) {
+      if (p >= old_n) return true;
+      const double* old = &inc.particles[p * stride];
+      const double* c = pv.centres + p * cs;
+      if (std::abs(c[0] - old[0]) > tol || std::abs(c[1] - old[1]) > tol || std::abs(c[2] - old[2]) > tol ||
+          pv.radii[p * rs] != old[3])
+        return true;
+      if (with_orientations)
+        for (int k = 0; k < 4; ++k)
+          if (pv.orientations[p * qs + k] != old[4 + k]) return true;
+      return with_shapes && pv.shape_ids[p] != inc.shape_ids[p];
+    };
+    // Phase 1: the new deposits of every block with a moved particle, beside the old ones.
+    arena->execute([&] {
+      tbb::parallel_for(std::int64_t(0), nblocks, [&](std::int64_t b) {
+        const std::int64_t first = b * kSortedBlock, count = std::min(n, first + kSortedBlock) - first;
+        DepositBlock& next = inc.next[b];
+        next.moved.clear();
+        for (std::int64_t i = 0; i < count; ++i)
+          if (moved(first + i)) next.moved.push_back(static_cast<std::uint32_t>(i));
+        if (next.moved.empty()) return;
+        const DepositBlock& old = inc.blocks[b];
+        Scratch& s = scratch.local();
+        next.deposits.clear();
+        next.offsets.resize(count + 1);
+        next.offsets[0] = 0;
+        std::size_t m = 0;
+        for (std::int64_t i = 0; i < count; ++i) {
+          if (m < next.moved.size() && next.moved[m] == i) {
+            particle(s, first + i);
+            next.deposits.insert(next.deposits.end(), s.deposits.begin(), s.deposits.end());
+            ++m;
+          } else {  // kept particles are below old_n, so their old deposits exist
+            next.deposits.insert(next.deposits.end(), old.deposits.begin() + old.offsets[i],
+                                 old.deposits.begin() + old.offsets[i + 1]);
+          }
+          next.offsets[i + 1] = static_cast<std::uint32_t>(next.deposits.size());
+        }
+      });
+    });
+    Report rep = gather_report(pv, cs, rs, volume);  // throws before the field changes
+    // Phase 2: subtract the moved particles' old deposits, add their new ones.
+    if (fresh) {
+      solid.assign(ncell, 0.0);
+      inc.dropped = 0;
+    }
+    auto apply_block = [&](std::int64_t b, auto&& add) {
+      const DepositBlock& next = inc.next[b];
+      const DepositBlock& old = inc.blocks[b];
+      double dropped = 0;
+      for (const std::uint32_t i : next.moved) {
+        if (b * kSortedBlock + i < old_n)
+          for (std::uint32_t k = old.offsets[i]; k < old.offsets[i + 1]; ++k) {
+            const Deposit& d = old.deposits[k];
+            if (d.cell == ncell) dropped -= d.volume; else add(d.cell, -d.volume);
+          }
+        for (std::uint32_t k = next.offsets[i]; k < next.offsets[i + 1]; ++k) {
+          const Deposit& d = next.deposits[k];
+          if (d.cell == ncell) dropped += d.volume; else add(d.cell, d.volume);
+        }
+      }
+      return dropped;
+    };
+    double dropped = 0;
+    if (opts.deterministic) {  // one thread, block order: the same sums for any thread count
+      for (std::int64_t b = 0; b < nblocks; ++b)
+        dropped += apply_block(b, [&](std::int64_t c, double x) { solid[c] += x; });
+    } else {
+      dropped = arena->execute([&] {
+        return tbb::parallel_reduce(
+            tbb::blocked_range<std::int64_t>(0, nblocks), 0.0,
+            [&](const tbb::blocked_range<std::int64_t>& r, double acc) {
+              for (std::int64_t b = r.begin(); b < r.end(); ++b)
+                acc += apply_block(b, [&](std::int64_t c, double x) {
+                  std::atomic_ref<double>(solid[c]).fetch_add(x, std::memory_order_relaxed);
+                });
+              return acc;
+            },
+            std::plus<double>());
+      });
+    }
+    inc.dropped += dropped;
+    std::int64_t count = 0;
+    for (std::int64_t b = 0; b < nblocks; ++b) {
+      DepositBlock& next = inc.next[b];
+      if (next.moved.empty()) continue;
+      count += static_cast<std::int64_t>(next.moved.size());
+      for (const std::uint32_t i : next.moved) {
+        const std::int64_t p = b * kSortedBlock + i;
+        double* st = &inc.particles[p * stride];
+        for (int d = 0; d < 3; ++d) st[d] = pv.centres[p * cs + d];
+        st[3] = pv.radii[p * rs];
+        if (with_orientations)
+          for (int k = 0; k < 4; ++k) st[4 + k] = pv.orientations[p * qs + k];
+        if (with_shapes) inc.shape_ids[p] = pv.shape_ids[p];
+      }
+      std::swap(next, inc.blocks[b]);
+    }
+    inc.valid = true;
+    inc.n = n;
+    inc.with_shapes = with_shapes;
+    inc.with_orientations = with_orientations;
+    moved_particles = count;
+    touched_valid = false;
+    rep.dropped_volume = inc.dropped;
+    rep.deposited_volume = sum_cells(solid, nullptr);
+    rep.clipped_volume = clipped_volume(solid, nullptr);
+    return rep;
   }
 
   /// A position moved into the grid along its periodic axes (others unchanged).
@@ -501,11 +752,15 @@ struct Engine::Impl {
   }
 
   /// Solid volume that clipping eps at alpha_min removes (0 when alpha_min is 0: no clip).
-  double clipped_volume(const std::vector<double>& field) const {
+  /// Over the given cells (all cells when null; others hold no solid).
+  double clipped_volume(const std::vector<double>& field, const std::vector<std::int64_t>* cells) const {
     if (opts.alpha_min <= 0) return 0.0;
+    auto clip = [&](std::int64_t c) { return std::max(0.0, field[c] - (1.0 - opts.alpha_min) * cell_volume(c)); };
     double clipped = 0;
-    for (std::size_t c = 0; c < field.size(); ++c)
-      clipped += std::max(0.0, field[c] - (1.0 - opts.alpha_min) * cell_volume(static_cast<std::int64_t>(c)));
+    if (cells)
+      for (const std::int64_t c : *cells) clipped += clip(c);
+    else
+      for (std::int64_t c = 0; c < static_cast<std::int64_t>(field.size()); ++c) clipped += clip(c);
     return clipped;
   }
 
@@ -528,7 +783,8 @@ struct Engine::Impl {
         }
       });
     });
-    std::vector<std::int64_t> offset(nblocks + 1, 0);
+    std::vector<std::int64_t>& offset = sort_offsets;
+    offset.assign(nblocks + 1, 0);
     for (std::int64_t b = 0; b < nblocks; ++b) offset[b + 1] = offset[b] + std::int64_t(blocks[b].size());
     const std::int64_t total = offset[nblocks];
     sort_keys.resize(total);
@@ -571,6 +827,7 @@ void Engine::configure(std::string_view options) {
                 "periodic axes are available on Cartesian grids only; a polyMesh's cyclic patches are not "
                 "supported yet (use periodic=none)");
   impl_->opts = next;
+  impl_->inc.valid = false;  // deposits kept by incremental=1 may no longer hold
   impl_->grid.set_periodic(next.periodic);
   if (new_arena) impl_->make_arena();
   impl_->log->set_level(spdlog::level::from_str(next.log_level));
@@ -642,11 +899,36 @@ void Engine::void_fraction(std::span<double> out) const {
 
 const Report& Engine::last_report() const { return impl_->report; }
 
+double Engine::last_report_value(std::string_view key) const {
+  const Report& r = impl_->report;
+  const std::pair<const char*, double> facts[] = {
+      {"particles", double(r.particles)},
+      {"fast_path_particles", double(r.fast_path_particles)},
+      {"sub_elements", double(r.sub_elements)},
+      {"particle_grid_min", double(r.particle_grid_min)},
+      {"particle_grid_max", double(r.particle_grid_max)},
+      {"particle_volume", r.particle_volume},
+      {"deposited_volume", r.deposited_volume},
+      {"dropped_volume", r.dropped_volume},
+      {"outside_particles", double(r.outside_particles)},
+      {"clipped_volume", r.clipped_volume},
+      {"moved_particles", double(impl_->have_field ? impl_->moved_particles : 0)},
+      {"touched_cells", impl_->touched_valid ? double(impl_->touched.size()) : -1.0},
+  };
+  std::string known;
+  for (const auto& [name, value] : facts) {
+    if (key == name) return value;
+    known += (known.empty() ? "" : ", ") + std::string(name);
+  }
+  throw Error(VFE_ERROR_INVALID_ARGUMENT, "unknown report key '" + std::string(key) + "'; known keys: " + known);
+}
+
 std::int32_t Engine::add_shape(std::string_view spec) {
   Impl::RegisteredShape sh{parse_shape_spec(spec), false, 0, nullptr, 0, 0, {}};
   sh.is_sphere = sh.shape.kind() == kernels::Shape::Kind::sphere;
   sh.eq_diameter = std::cbrt(6.0 * sh.shape.volume() / std::numbers::pi);
   impl_->shapes.push_back(std::move(sh));
+  impl_->inc.valid = false;
   return static_cast<std::int32_t>(impl_->shapes.size() - 1);
 }
 

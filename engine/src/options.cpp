@@ -16,7 +16,8 @@ namespace {
 
 const char* const kKeys =
     "method, particle_grid, particle_grid_max, template, orientation, outside, threads, deterministic, alpha_min, "
-    "periodic, accumulation, seed, sigma, gamma, superficial_velocity, fluid_dt, log_level";
+    "periodic, accumulation, seed, sigma, gamma, superficial_velocity, fluid_dt, log_level, fast_path, rotation_bank, incremental, move_tolerance, "
+    "touched_only";
 
 [[noreturn]] void bad(std::string_view key, std::string_view value, std::string_view expected) {
   throw Error(VFE_ERROR_INVALID_ARGUMENT, "option '" + std::string(key) + "': bad value '" +
@@ -141,6 +142,16 @@ void apply(Options& o, std::string_view key, std::string_view v) {
     if (v != "trace" && v != "debug" && v != "info" && v != "warn" && v != "error" && v != "off")
       bad(key, v, "one of trace, debug, info, warn, error, off");
     o.log_level = std::string(v);
+  } else if (key == "fast_path") {
+    o.fast_path = parse_int(key, v, 0, 1) == 1;
+  } else if (key == "rotation_bank") {
+    o.rotation_bank = parse_int(key, v, 0, 1) == 1;
+  } else if (key == "incremental") {
+    o.incremental = parse_int(key, v, 0, 1) == 1;
+  } else if (key == "move_tolerance") {
+    o.move_tolerance = parse_double(key, v, 0.0, 1e30);
+  } else if (key == "touched_only") {
+    o.touched_only = parse_int(key, v, 0, 1) == 1;
   } else {
     throw Error(VFE_ERROR_INVALID_ARGUMENT,
                 "unknown option '" + std::string(key) + "'; known options: " + kKeys);
@@ -194,6 +205,11 @@ std::string option_value(const Options& o, std::string_view key) {
   if (key == "accumulation") return name_of(o.accumulation, kAccumulation);
   if (key == "seed") return std::to_string(o.seed);
   if (key == "log_level") return o.log_level;
+  if (key == "fast_path") return o.fast_path ? "1" : "0";
+  if (key == "rotation_bank") return o.rotation_bank ? "1" : "0";
+  if (key == "incremental") return o.incremental ? "1" : "0";
+  if (key == "move_tolerance") return number_text(o.move_tolerance);
+  if (key == "touched_only") return o.touched_only ? "1" : "0";
   throw Error(VFE_ERROR_INVALID_ARGUMENT, "unknown option '" + std::string(key) + "'; known options: " + kKeys);
 }
 
@@ -201,7 +217,8 @@ std::string format_options(const Options& o) {
   std::string out;
   for (const char* key : {"method", "particle_grid", "particle_grid_max", "template", "orientation", "outside", "threads",
                           "deterministic", "alpha_min", "periodic", "accumulation", "seed", "sigma", "gamma",
-                          "superficial_velocity", "fluid_dt", "log_level"}) {
+                          "superficial_velocity", "fluid_dt", "log_level", "fast_path", "rotation_bank",
+                          "incremental", "move_tolerance", "touched_only"}) {
     if (!out.empty()) out += ' ';
     out += std::string(key) + "=" + option_value(o, key);
   }

@@ -44,6 +44,16 @@ struct Options {
   double superficial_velocity = 0;
   double fluid_dt = 0;
   std::string log_level = "warn";
+  // Work a scene may not need, each switchable so its saving can be measured
+  // (docs/performance.md).
+  bool fast_path = true;      ///< a particle inside one cell: one deposit, no sub-elements
+  bool rotation_bank = true;  ///< orientation=random from a bank of pre-built rotations
+  /// Keep each particle's deposits; the next compute redoes only particles that moved by
+  /// more than move_tolerance (or changed radius, orientation or shape).
+  bool incremental = false;
+  double move_tolerance = 0;
+  /// Clear, merge and sum only the cells particles touch instead of the whole field.
+  bool touched_only = false;
 };
 
 /// Applies "key=value ..." on top of base; throws Error (invalid argument naming the key,

@@ -76,6 +76,28 @@ int main(void) {
     }
   }
 
+  /* Incremental update: an unmoved particle is skipped; the facts by name. */
+  {
+    double moved = -1, value = 0, total = 0;
+    int c;
+    CHECK(vfe_configure(e, "method=exact incremental=1 touched_only=1") == VFE_OK, "incremental: %s", vfe_last_error(e));
+    CHECK(vfe_compute(e, 2, centres, radii, NULL, solid) == VFE_OK, "incremental compute: %s", vfe_last_error(e));
+    CHECK(vfe_last_report_value(e, "moved_particles", &moved) == VFE_OK && moved == 2.0, "first: all moved (%g)", moved);
+    centres[0] += 1e-4;
+    CHECK(vfe_compute(e, 2, centres, radii, NULL, solid) == VFE_OK, "incremental compute: %s", vfe_last_error(e));
+    CHECK(vfe_last_report_value(e, "moved_particles", &moved) == VFE_OK && moved == 1.0, "one moved (%g)", moved);
+    for (c = 0; c < nc; ++c) total += solid[c];
+    CHECK(fabs(total - expected) < 1e-12 * expected, "incremental conserves volume: %g vs %g", total, expected);
+    centres[0] -= 1e-4;
+    CHECK(vfe_last_report_value(e, "deposited_volume", &value) == VFE_OK && fabs(value - expected) < 1e-12 * expected,
+          "deposited_volume by name");
+    CHECK(vfe_last_report_value(e, "bogus", &value) == VFE_ERROR_INVALID_ARGUMENT &&
+              strstr(vfe_last_error(e), "moved_particles") != NULL,
+          "unknown report key: %s", vfe_last_error(e));
+    CHECK(vfe_last_report_value(e, NULL, &value) == VFE_ERROR_INVALID_ARGUMENT, "NULL key");
+    CHECK(vfe_configure(e, "incremental=0 touched_only=0") == VFE_OK, "incremental off");
+  }
+
   /* Failures: a status, a message, untouched output, a usable engine. */
   s = vfe_configure(e, "method=pmm bogus=1");
   CHECK(s == VFE_ERROR_INVALID_ARGUMENT, "unknown option status %d", (int)s);

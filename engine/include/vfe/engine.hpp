@@ -101,6 +101,9 @@ class Engine {
   void void_fraction(std::span<double> out) const;
   /// Facts about the last successful compute.
   const Report& last_report() const;
+  /// One fact of the last compute by name (vfe_last_report_value's keys); throws Error
+  /// for an unknown key.
+  double last_report_value(std::string_view key) const;
   /// Sub-elements per particle that particle_grid resolves to for a particle of the
   /// given diameter in a cell of the given size (the template's actual size).
   std::int64_t particle_grid_for(double diameter, double cell_size) const;

@@ -107,6 +107,12 @@ typedef struct vfe_report {
 /** Copies the report of the last successful compute. */
 VFE_API vfe_status vfe_last_report(const vfe_engine* e, vfe_report* out);
 
+/** One fact of the last successful compute by name: any field of vfe_report, and
+ *  "moved_particles" (particles computed anew; with incremental=1 those that moved) and
+ *  "touched_cells" (cells with solid volume; with touched_only=1, else -1). Unknown keys
+ *  give VFE_ERROR_INVALID_ARGUMENT. New facts get new keys, so vfe_report never changes. */
+VFE_API vfe_status vfe_last_report_value(const vfe_engine* e, const char* key, double* out);
+
 #ifdef __cplusplus
 }
 #endif

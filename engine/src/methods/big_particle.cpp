@@ -15,7 +15,7 @@ namespace vfe::detail {
 void big_particle_particle(const Context& ctx, Scratch& s, const Particle& p) {
   const CartesianGrid& grid = ctx.grid;
   const Eigen::Vector3d& c = p.centre;
-  if (const std::int64_t cell = single_cell(grid, c, Eigen::Vector3d::Constant(p.radius)); cell >= 0) {
+  if (const std::int64_t cell = single_cell(ctx, c, Eigen::Vector3d::Constant(p.radius)); cell >= 0) {
     ++s.fast_path;  // only this cell's centre can lie within the particle
     s.add(cell, p.volume);
     return;

@@ -10,7 +10,7 @@ namespace vfe::detail {
 
 void divided_particle(const Context& ctx, Scratch& s, const Particle& p) {
   s.count_grid(kernels::kDividedPoints);
-  if (const std::int64_t cell = single_cell(ctx.grid, p.centre, Eigen::Vector3d::Constant(p.radius)); cell >= 0) {
+  if (const std::int64_t cell = single_cell(ctx, p.centre, Eigen::Vector3d::Constant(p.radius)); cell >= 0) {
     ++s.fast_path;
     s.add(cell, p.volume);
     return;

@@ -55,7 +55,9 @@ void window_nodes(const CartesianGrid& grid, const Window& w, int d, std::vector
   }
 }
 
-std::int64_t single_cell(const CartesianGrid& grid, const Eigen::Vector3d& c, const Eigen::Vector3d& half) {
+std::int64_t single_cell(const Context& ctx, const Eigen::Vector3d& c, const Eigen::Vector3d& half) {
+  if (!ctx.opts.fast_path) return -1;
+  const CartesianGrid& grid = ctx.grid;
   std::int64_t idx[3];
   for (int d = 0; d < 3; ++d) {
     const std::int64_t lo = grid.axis_index(d, c[d] - half[d]);

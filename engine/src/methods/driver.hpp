@@ -33,6 +33,9 @@ struct Scratch {
   std::vector<std::int32_t> local_cells;         // pmm: window cell of each sub-element
   std::vector<double> lanes;                     // pmm: four partial sums per window cell
   std::vector<double> axis[3];                   // separable methods: weights per axis
+  std::vector<std::int64_t> candidate_cells;     // polyMesh exact: cells near the particle
+  std::vector<Eigen::Vector3d> cell_points;      // polyMesh exact: one cell's boundary polygons
+  std::vector<std::int32_t> cell_face_offsets, cell_face_points;
   std::int64_t fast_path = 0, sub_elements = 0, outside_particles = 0;
   std::int64_t first_error = std::numeric_limits<std::int64_t>::max();
   std::int64_t grid_min = std::numeric_limits<std::int64_t>::max(), grid_max = 0;
@@ -125,8 +128,9 @@ Window make_window(const CartesianGrid& grid, const Eigen::Vector3d& centre, con
 /// ends at +infinity.
 void window_nodes(const CartesianGrid& grid, const Window& w, int d, std::vector<double>& nodes);
 
-/// The one mesh cell wholly holding the box centre +- half, or -1.
-std::int64_t single_cell(const CartesianGrid& grid, const Eigen::Vector3d& centre, const Eigen::Vector3d& half);
+/// The one mesh cell wholly holding the box centre +- half, or -1 (always -1 with
+/// fast_path=0, so every particle takes the general path).
+std::int64_t single_cell(const Context& ctx, const Eigen::Vector3d& centre, const Eigen::Vector3d& half);
 
 /// Volume of particle p that lies outside the mesh, handled by `policy`. nearest_cell is
 /// the mesh cell nearest to where the volume is; flagged counts the particle once.

@@ -12,7 +12,7 @@ void exact_particle(const Context& ctx, Scratch& s, const Particle& p) {
   const CartesianGrid& grid = ctx.grid;
   const Eigen::Vector3d& c = p.centre;
   const double r = p.radius;
-  if (const std::int64_t cell = single_cell(grid, c, Eigen::Vector3d::Constant(r)); cell >= 0) {
+  if (const std::int64_t cell = single_cell(ctx, c, Eigen::Vector3d::Constant(r)); cell >= 0) {
     ++s.fast_path;
     s.add(cell, p.volume);
     return;

@@ -10,7 +10,7 @@ void pmm_particle(const Context& ctx, Scratch& s, const Particle& p) {
   const kernels::ParticleTemplate& t = ctx.template_for(2 * p.radius);
   const std::int64_t n = static_cast<std::int64_t>(t.size());
   s.count_grid(n);
-  if (const std::int64_t cell = single_cell(ctx.grid, p.centre, Eigen::Vector3d::Constant(p.radius)); cell >= 0) {
+  if (const std::int64_t cell = single_cell(ctx, p.centre, Eigen::Vector3d::Constant(p.radius)); cell >= 0) {
     ++s.fast_path;
     s.add(cell, p.volume);
     return;
@@ -22,7 +22,9 @@ void pmm_particle(const Context& ctx, Scratch& s, const Particle& p) {
 Eigen::Matrix3d particle_rotation(const Options& opts, const Particle& p) {
   switch (opts.orientation) {
     case Orientation::none: break;
-    case Orientation::random: return kernels::banked_random_rotation(std::uint64_t(p.index), opts.seed);
+    case Orientation::random:
+      return opts.rotation_bank ? kernels::banked_random_rotation(std::uint64_t(p.index), opts.seed)
+                                : kernels::random_rotation(std::uint64_t(p.index), opts.seed);
     case Orientation::given: return kernels::rotation_from_quaternion(p.orientation);
   }
   return Eigen::Matrix3d::Identity();
@@ -44,7 +46,7 @@ void shape_particle(const Context& ctx, Scratch& s, const Particle& p, const ker
   const kernels::ParticleTemplate& t = *tmpl;
   const std::int64_t n = static_cast<std::int64_t>(t.size());
   s.count_grid(n);
-  if (const std::int64_t cell = single_cell(ctx.grid, p.centre, Eigen::Vector3d::Constant(p.radius * t.reach));
+  if (const std::int64_t cell = single_cell(ctx, p.centre, Eigen::Vector3d::Constant(p.radius * t.reach));
       cell >= 0) {
     ++s.fast_path;
     s.add(cell, p.volume);

@@ -29,7 +29,7 @@ template <class AxisWeights>
 void spread_separable(const Context& ctx, Scratch& s, const Particle& p, const Eigen::Vector3d& half,
                       AxisWeights&& axis_weights) {
   const CartesianGrid& grid = ctx.grid;
-  if (const std::int64_t cell = single_cell(grid, p.centre, half); cell >= 0) {
+  if (const std::int64_t cell = single_cell(ctx, p.centre, half); cell >= 0) {
     ++s.fast_path;
     s.add(cell, p.volume);
     return;
