@@ -160,6 +160,43 @@ MethodSpec method_entry(const Ctx& ctx, const YAML::Node& n, const std::string& 
   return m;
 }
 
+/// The nodes of one axis of a rectilinear mesh: a list of increasing coordinates, or
+/// {lo, hi, cells, grading} with cell sizes in geometric progression whose last / first
+/// ratio is grading (1 = uniform; blockMesh's simpleGrading).
+std::vector<double> axis_nodes(const Ctx& ctx, const YAML::Node& mesh, const std::string& axis,
+                               const std::string& where) {
+  const YAML::Node n = mesh[axis];
+  const std::string at = where + ": " + axis;
+  if (!n) ctx.fail(mesh, where + ": no '" + axis + "' axis; give a node list or {lo, hi, cells, grading}");
+  std::vector<double> x;
+  if (n.IsSequence()) {
+    for (std::size_t i = 0; i < n.size(); ++i) x.push_back(number(ctx, n[i], at));
+  } else if (n.IsMap()) {
+    check_keys(ctx, n, {"lo", "hi", "cells", "grading"}, at);
+    if (!n["lo"] || !n["hi"] || !n["cells"]) ctx.fail(n, at + " needs lo, hi and cells (and optionally grading)");
+    const double lo = number(ctx, n["lo"], at + ".lo"), hi = number(ctx, n["hi"], at + ".hi");
+    const double cells = number(ctx, n["cells"], at + ".cells");
+    const double grading = n["grading"] ? number(ctx, n["grading"], at + ".grading") : 1.0;
+    if (!(hi > lo)) ctx.fail(n, at + ": needs lo < hi");
+    if (!(cells >= 1) || cells != std::floor(cells) || cells > 1e7) ctx.fail(n["cells"], at + ".cells must be an integer >= 1");
+    if (!(grading > 0)) ctx.fail(n["grading"], at + ".grading must be > 0");
+    const int m = static_cast<int>(cells);
+    const double r = m > 1 ? std::pow(grading, 1.0 / (m - 1)) : 1.0;  // ratio of neighbouring cells
+    double sum = 0, size = 1;
+    std::vector<double> sizes(m);
+    for (int i = 0; i < m; ++i, size *= r) sum += sizes[i] = size;
+    x.push_back(lo);
+    double at_x = 0;
+    for (int i = 0; i < m; ++i) x.push_back(i + 1 == m ? hi : lo + (at_x += sizes[i]) * (hi - lo) / sum);
+  } else {
+    ctx.fail(n, at + " must be a node list [x0, x1, ...] or {lo, hi, cells, grading}");
+  }
+  if (x.size() < 2) ctx.fail(n, at + " needs at least 2 nodes");
+  for (std::size_t i = 1; i < x.size(); ++i)
+    if (!(x[i] > x[i - 1])) ctx.fail(n, at + ": nodes must be strictly increasing (node " + std::to_string(i) + ")");
+  return x;
+}
+
 MeshSpec mesh_entry(const Ctx& ctx, const YAML::Node& n, std::size_t index, const fs::path& base_dir) {
   const std::string where0 = "mesh " + std::to_string(index + 1);
   if (!n.IsMap())
@@ -172,10 +209,16 @@ MeshSpec mesh_entry(const Ctx& ctx, const YAML::Node& n, std::size_t index, cons
   if (!is_identifier_like(m.name))
     ctx.fail(n["name"], where + ": the name may only have letters, digits, '_' and '-'");
   if (n["type"]) m.type = scalar(ctx, n["type"], where + ": type");
-  if (m.type != "cartesian" && m.type != "polymesh")
+  if (m.type != "cartesian" && m.type != "polymesh" && m.type != "rectilinear")
     ctx.fail(n["type"], where + ": unknown mesh type '" + m.type +
-                            "'; use type: cartesian (origin/bounds, spacing, cells) or type: polymesh "
-                            "(path: an OpenFOAM case or polyMesh folder)");
+                            "'; use type: cartesian (origin/bounds, spacing, cells), type: rectilinear (x, y, z: "
+                            "node lists or {lo, hi, cells, grading}) or type: polymesh (path: an OpenFOAM case or "
+                            "polyMesh folder)");
+  if (m.type == "rectilinear") {
+    check_keys(ctx, n, {"name", "type", "x", "y", "z"}, where + " (type rectilinear)");
+    for (int d = 0; d < 3; ++d) m.nodes[d] = axis_nodes(ctx, n, std::string(1, "xyz"[d]), where);
+    return m;
+  }
   if (m.type == "polymesh") {
     check_keys(ctx, n, {"name", "type", "path"}, where + " (type polymesh)");
     if (!n["path"] || n["path"].IsNull())

@@ -27,7 +27,10 @@ class ConfigError : public std::runtime_error {
 /// polyMesh folder itself (resolved against the config's folder).
 struct MeshSpec {
   std::string name;
-  std::string type = "cartesian";  ///< "cartesian" or "polymesh"
+  std::string type = "cartesian";  ///< "cartesian", "rectilinear" or "polymesh"
+  /// rectilinear: node coordinates per axis, each given as a list or as
+  /// {lo, hi, cells, grading} (grading = last cell size / first, as blockMesh's).
+  std::array<std::vector<double>, 3> nodes;
   std::filesystem::path path;      ///< polymesh: the folder, resolved against the config's folder
   std::optional<std::array<double, 3>> origin;
   std::optional<std::array<double, 3>> spacing;

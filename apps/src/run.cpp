@@ -185,7 +185,8 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
 
   for (std::size_t mesh_index = 0; mesh_index < meshes.size(); ++mesh_index) {
     const MeshSpec& mesh = meshes[mesh_index];
-    const bool poly = mesh.type == "polymesh";
+    const bool poly = mesh.type == "polymesh";       // an OpenFOAM case
+    const bool rectilinear = mesh.type == "rectilinear";
     const std::string mesh_where = "mesh '" + mesh.name + "'";
     vfe::CartesianGridSpec grid;
     std::unique_ptr<vfe::Engine> engine;
@@ -193,6 +194,9 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
       t0 = Clock::now();
       with_context(mesh_where, [&] { engine = std::make_unique<vfe::Engine>(vfe::PolyMeshSpec{mesh.path.string()}); });
       log->info("mesh '{}': read {} in {:.0f} ms", mesh.name, mesh.path.string(), ms_since(t0));
+    } else if (rectilinear) {
+      with_context(mesh_where, [&] { engine = std::make_unique<vfe::Engine>(vfe::RectilinearGridSpec{mesh.nodes}); });
+      for (int d = 0; d < 3; ++d) grid.cells[d] = static_cast<std::int64_t>(mesh.nodes[d].size()) - 1;
     } else {
       std::string note;
       grid = resolve_grid(mesh, &frame.box, source, &note);
@@ -214,15 +218,15 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
     mean_cell_volume /= static_cast<double>(std::max<std::size_t>(ncells, 1));
     const double cell_size = std::cbrt(mean_cell_volume);
     const double chi = mean_d > 0 ? cell_size / mean_d : 0.0;
-    if (poly)
-      log->info("mesh '{}': polyMesh of {} cells, mean cell size {} (mean chi = {:.2f})", mesh.name, ncells,
-                g3(cell_size), chi);
+    if (poly || rectilinear)
+      log->info("mesh '{}': {} of {} cells, mean cell size {} (mean chi = {:.2f})", mesh.name,
+                poly ? "polyMesh" : "rectilinear grid", ncells, g3(cell_size), chi);
     else
       log->info("mesh '{}': {} x {} x {} cells of {} (chi = {:.2f})", mesh.name, grid.cells[0], grid.cells[1],
                 grid.cells[2], g3(cell_size), chi);
     const bool foam_here = foam && poly;
     if (foam && !poly)
-      log->warn("mesh '{}' is a Cartesian grid: OpenFOAM field files are written for polymesh meshes only",
+      log->warn("mesh '{}' is not an OpenFOAM case: OpenFOAM field files are written for polymesh meshes only",
                 mesh.name);
 
     // Fields kept for the writers: label, void fraction, solid volume, options.
@@ -236,11 +240,11 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
 
     auto fill_row = [&](ResultRow& row, const MethodSpec& m, const std::string& opts) {
       row.mesh = mesh.name;
-      row.mesh_type = poly ? "polymesh" : "cartesian";
+      row.mesh_type = mesh.type;
       row.label = m.label;
       row.method = m.method;
       row.options = opts;
-      row.grid = poly ? std::array<std::int64_t, 3>{0, 0, 0} : grid.cells;
+      row.grid = poly ? std::array<std::int64_t, 3>{0, 0, 0} : grid.cells;  // rectilinear: cells per axis
       row.cells = static_cast<std::int64_t>(ncells);
       row.cell_size = cell_size;
       row.chi = chi;
@@ -376,11 +380,12 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
 
     if (opt.table) {
       char title[768];
-      if (poly)
+      if (poly || rectilinear)
         std::snprintf(title, sizeof title,
-                      "\n%s / mesh %s: polyMesh of %lld cells, mean cell size %s (mean chi = %.2f), %lld particles, "
+                      "\n%s / mesh %s: %s of %lld cells, mean cell size %s (mean chi = %.2f), %lld particles, "
                       "%d thread(s), median of %d, reference %s",
-                      cfg.name.c_str(), mesh.name.c_str(), static_cast<long long>(ncells), g3(cell_size).c_str(), chi,
+                      cfg.name.c_str(), mesh.name.c_str(), poly ? "polyMesh" : "rectilinear grid",
+                      static_cast<long long>(ncells), g3(cell_size).c_str(), chi,
                       static_cast<long long>(frame.n), threads_used, repeats, reference_title.c_str());
       else
         std::snprintf(title, sizeof title,
@@ -400,7 +405,7 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
         arrays.push_back({"voidfraction_" + f.label, f.eps});
         arrays.push_back({"solid_volume_" + f.label, f.solid});
       }
-      if (poly) {
+      if (engine->is_polymesh()) {
         const fs::path f = out_dir / (mesh.name + ".vtu");
         std::vector<double> centres(3 * ncells);
         engine->cell_centres(centres);

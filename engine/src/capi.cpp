@@ -100,6 +100,25 @@ vfe_status vfe_create_polymesh(const char* polymesh_dir, vfe_engine** out) {
   return create(vfe::PolyMeshSpec{polymesh_dir}, out);
 }
 
+vfe_status vfe_create_rectilinear(const double* x_nodes, int64_t n_x, const double* y_nodes, int64_t n_y,
+                                  const double* z_nodes, int64_t n_z, vfe_engine** out) {
+  if (!out) return null_argument(g_creation_error, "out");
+  const double* nodes[3] = {x_nodes, y_nodes, z_nodes};
+  const int64_t counts[3] = {n_x, n_y, n_z};
+  vfe::RectilinearGridSpec spec;
+  for (int d = 0; d < 3; ++d) {
+    if (!nodes[d]) return null_argument(g_creation_error, d == 0 ? "x_nodes" : d == 1 ? "y_nodes" : "z_nodes");
+    if (counts[d] < 0) {
+      g_creation_error = std::string("node count of axis ") + "xyz"[d] + " is negative; pass the length of the array";
+      return VFE_ERROR_INVALID_ARGUMENT;
+    }
+  }
+  const vfe_status copied = guarded(g_creation_error, [&] {
+    for (int d = 0; d < 3; ++d) spec.nodes[d].assign(nodes[d], nodes[d] + counts[d]);
+  });
+  return copied == VFE_OK ? create(spec, out) : copied;
+}
+
 void vfe_destroy(vfe_engine* e) { delete e; }
 
 vfe_status vfe_configure(vfe_engine* e, const char* options) {

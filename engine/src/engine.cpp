@@ -7,6 +7,8 @@
 #include "options.hpp"
 #include "shape_spec.hpp"
 #include "methods/polymesh.hpp"
+#include "methods/rectilinear.hpp"
+#include "polymesh/rectilinear_grid.hpp"
 
 #include <vfe/kernels/divided.hpp>
 #include <vfe/kernels/particle_template.hpp>
@@ -27,6 +29,7 @@
 #include <limits>
 #include <map>
 #include <numbers>
+#include <optional>
 #include <sstream>
 
 namespace vfe {
@@ -164,6 +167,9 @@ struct Engine::Impl {
   // --- the mesh: a Cartesian grid, or a polyMesh with its locator -------------------
   std::unique_ptr<PolyMesh> poly;
   std::unique_ptr<CellLocator> locator;
+  /// A rectilinear grid (then `poly` holds the same cells for topology, volumes and
+  /// writers, while the rectilinear drivers compute): its axes may be periodic.
+  std::unique_ptr<RectilinearGrid> rect;
   double poly_vmin = 0, poly_vmax = 0;  // smallest and largest cell volume
 
   explicit Impl(const CartesianGridSpec& spec) : grid(spec) { init(); }
@@ -388,10 +394,26 @@ struct Engine::Impl {
                                              " is not available on a polyMesh; use pmm (a large particle_grid "
                                              "serves as the reference) or direct");
     const detail::PolyContext poly_ctx{locator.get(), opts};
+    const std::optional<detail::RectilinearContext> rect_ctx =
+        rect ? std::optional<detail::RectilinearContext>(detail::RectilinearContext{*rect, opts}) : std::nullopt;
     auto particle = [&](Scratch& s, std::int64_t p) {
       s.deposits.clear();
       const double* cp = pv.centres + p * cs;
       const double r = pv.radii[p * rs];
+      if (rect) {
+        const Eigen::Vector3d c = wrapped(Eigen::Vector3d(cp[0], cp[1], cp[2]));
+        const double* q = pv.orientations ? pv.orientations + p * qs : nullptr;
+        if (pv.shape_ids && !shapes[pv.shape_ids[p]].is_sphere) {
+          const RegisteredShape& sh = shapes[pv.shape_ids[p]];
+          detail::rectilinear_particle(*rect_ctx, s, detail::Particle{p, c, r, sh.shape.volume() * r * r * r, q},
+                                       shape_direct ? nullptr : sh.tmpl, sh.shape.centroid());
+        } else {
+          detail::rectilinear_particle(*rect_ctx, s, detail::Particle{p, c, r, 4.0 / 3.0 * std::numbers::pi * r * r * r, q},
+                                       opts.method == Method::pmm ? &poly_template(c, 2 * r) : nullptr,
+                                       Eigen::Vector3d::Zero());
+        }
+        return;
+      }
       if (poly) {
         const Eigen::Vector3d c(cp[0], cp[1], cp[2]);
         const double* q = pv.orientations ? pv.orientations + p * qs : nullptr;
@@ -745,7 +767,7 @@ struct Engine::Impl {
   /// pmm's sphere template on a polyMesh: auto sizes it by the cell holding the centre.
   const ParticleTemplate& poly_template(const Eigen::Vector3d& c, double diameter) const {
     if (bank.size() == 1) return *bank.front();
-    std::int64_t cell = locator->locate(c);
+    std::int64_t cell = rect ? rect->nearest(c) : locator->locate(c);
     if (cell < 0) cell = locator->nearest_cell(c);
     const std::int64_t k = detail::auto_step(diameter, poly->cell_volume(cell), rule);
     return *bank[static_cast<std::size_t>(std::clamp<std::int64_t>(k - bank_first, 0, std::int64_t(bank.size()) - 1))];
@@ -817,15 +839,20 @@ struct Engine::Impl {
 Engine::Engine(const CartesianGridSpec& grid) : impl_(std::make_unique<Impl>(grid)) {}
 Engine::Engine(const PolyMeshSpec& mesh)
     : impl_(std::make_unique<Impl>(std::make_unique<PolyMesh>(PolyMesh::read(mesh.dir)))) {}
+Engine::Engine(const RectilinearGridSpec& grid) {
+  auto rect = std::make_unique<RectilinearGrid>(grid.nodes);
+  impl_ = std::make_unique<Impl>(std::make_unique<PolyMesh>(rect->polymesh_data()));
+  impl_->rect = std::move(rect);
+}
 Engine::~Engine() = default;
 
 void Engine::configure(std::string_view options) {
   Options next = parse_options(options, impl_->opts);
   const bool new_arena = next.threads != impl_->opts.threads;
-  if (next.periodic && impl_->poly)
+  if (next.periodic && impl_->poly && !impl_->rect)
     throw Error(VFE_ERROR_UNSUPPORTED,
-                "periodic axes are available on Cartesian grids only; a polyMesh's cyclic patches are not "
-                "supported yet (use periodic=none)");
+                "periodic axes are available on Cartesian and rectilinear grids only; an OpenFOAM polyMesh's "
+                "cyclic patches are not supported (use periodic=none)");
   impl_->opts = next;
   impl_->inc.valid = false;  // deposits kept by incremental=1 may no longer hold
   impl_->grid.set_periodic(next.periodic);

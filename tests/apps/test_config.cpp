@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <string>
 
 using namespace vfe::apps;
@@ -226,4 +227,35 @@ TEST(Config, MergesOptions) {
             "method=pmm particle_grid=27 threads=2 outside=drop");
   EXPECT_EQ(merge_options({"", "  "}), "");
   EXPECT_THROW(merge_options({"novalue"}), ConfigError);
+}
+
+TEST(Config, RectilinearMeshesFromNodeListsAndGradedAxes) {
+  const std::string rect = R"(  - name: graded
+    type: rectilinear
+    x: [0, 0.001, 0.003, 0.02]
+    y: {lo: 0, hi: 0.02, cells: 4}
+    z: {lo: 0, hi: 0.06, cells: 5, grading: 4}
+)";
+  const SceneConfig c = parse_config(replaced(kGood, "methods:\n", rect + "methods:\n"), "/cfg", "bed.yaml");
+  ASSERT_EQ(c.meshes.size(), 3u);
+  const MeshSpec& m = c.meshes[2];
+  EXPECT_EQ(m.type, "rectilinear");
+  EXPECT_EQ(m.nodes[0], (std::vector<double>{0, 0.001, 0.003, 0.02}));
+  ASSERT_EQ(m.nodes[1].size(), 5u);
+  EXPECT_NEAR(m.nodes[1][2], 0.01, 1e-15);
+  ASSERT_EQ(m.nodes[2].size(), 6u);
+  EXPECT_EQ(m.nodes[2].front(), 0.0);
+  EXPECT_EQ(m.nodes[2].back(), 0.06);
+  const double first = m.nodes[2][1] - m.nodes[2][0], last = m.nodes[2][5] - m.nodes[2][4];
+  EXPECT_NEAR(last / first, 4.0, 1e-12);  // grading = last cell / first cell, as blockMesh
+  for (std::size_t i = 1; i < 5; ++i)      // a geometric progression
+    EXPECT_NEAR((m.nodes[2][i + 1] - m.nodes[2][i]) / (m.nodes[2][i] - m.nodes[2][i - 1]), std::pow(4.0, 0.25), 1e-12);
+  const std::string good = replaced(kGood, "methods:\n", rect + "methods:\n");
+  EXPECT_NE(error_of(replaced(good, "x: [0, 0.001, 0.003, 0.02]", "x: [0, 0.003, 0.001]")).find("strictly increasing"),
+            std::string::npos);
+  EXPECT_NE(error_of(replaced(good, "cells: 5, grading: 4", "cells: 5, grading: -1")).find("grading must be > 0"),
+            std::string::npos);
+  EXPECT_NE(error_of(replaced(good, "    x: [0, 0.001, 0.003, 0.02]\n", "")).find("no 'x' axis"), std::string::npos);
+  EXPECT_NE(error_of(replaced(good, "y: {lo: 0, hi: 0.02, cells: 4}", "y: {lo: 0, hi: 0.02}")).find("needs lo, hi and cells"),
+            std::string::npos);
 }

@@ -40,6 +40,14 @@ struct PolyMeshSpec {
   std::string dir;
 };
 
+/// A rectilinear (graded Cartesian) grid: strictly increasing node coordinates per axis
+/// (at least 2 each); cell (i, j, k) spans [x_i, x_i+1) x [y_j, y_j+1) x [z_k, z_k+1) and
+/// has index i + nx*(j + ny*k). Served as a polyMesh of hexahedra (direct, pmm, exact)
+/// whose axes may be periodic.
+struct RectilinearGridSpec {
+  std::array<std::vector<double>, 3> nodes;
+};
+
 /// Zero-copy view of the host's particle arrays. Strides count doubles between
 /// consecutive particles (0 = packed: 3 for centres, 1 for radii, 4 for orientations).
 /// orientations may be null (quaternions w, x, y, z otherwise).
@@ -63,9 +71,11 @@ class Engine {
   /// Builds an engine on a Cartesian grid; throws Error on invalid geometry.
   explicit Engine(const CartesianGridSpec& grid);
   /// Builds an engine on an OpenFOAM polyMesh; throws Error (I/O or invalid mesh).
-  /// Methods there: direct and pmm (spheres and shapes); the others answer
-  /// VFE_ERROR_UNSUPPORTED (use pmm with a large particle_grid as the reference).
+  /// Methods there: direct and pmm (spheres and shapes), exact (spheres); the others
+  /// answer VFE_ERROR_UNSUPPORTED.
   explicit Engine(const PolyMeshSpec& mesh);
+  /// Builds an engine on a rectilinear grid; throws Error naming a bad node.
+  explicit Engine(const RectilinearGridSpec& grid);
   ~Engine();
   Engine(const Engine&) = delete;
   Engine& operator=(const Engine&) = delete;
@@ -78,7 +88,7 @@ class Engine {
   std::string options() const;
 
   std::int64_t cell_count() const;
-  /// True for an OpenFOAM polyMesh engine, false for a Cartesian grid.
+  /// True for a polyMesh engine (OpenFOAM or rectilinear), false for a Cartesian grid.
   bool is_polymesh() const;
   /// Cell centres in cell order (3 values per cell: x, y, z).
   void cell_centres(std::span<double> out) const;

@@ -49,6 +49,11 @@ VFE_API vfe_status vfe_create_cartesian(const double origin[3], const double spa
 
 /** Engine on an OpenFOAM polyMesh (case folder or its constant/polyMesh folder). */
 VFE_API vfe_status vfe_create_polymesh(const char* polymesh_dir, vfe_engine** out);
+/** Rectilinear (graded Cartesian) grid: n_x, n_y, n_z strictly increasing node coordinates
+ *  per axis (at least 2 each); cell (i, j, k) has index i + (n_x-1)*(j + (n_y-1)*k).
+ *  Methods direct, pmm and exact; axes may be periodic. */
+VFE_API vfe_status vfe_create_rectilinear(const double* x_nodes, int64_t n_x, const double* y_nodes, int64_t n_y,
+                                          const double* z_nodes, int64_t n_z, vfe_engine** out);
 
 /** Frees the engine; NULL is a no-op. */
 VFE_API void vfe_destroy(vfe_engine* e);

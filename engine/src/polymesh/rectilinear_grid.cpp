@@ -87,4 +87,68 @@ std::vector<double> RectilinearGrid::cell_volumes() const {
   return v;
 }
 
+PolyMeshData RectilinearGrid::polymesh_data() const {
+  const std::int64_t nx = n_[0], ny = n_[1], nz = n_[2];
+  PolyMeshData m;
+  m.source = "rectilinear grid";
+  m.points.reserve(static_cast<std::size_t>((nx + 1) * (ny + 1) * (nz + 1)));
+  for (std::int64_t k = 0; k <= nz; ++k)
+    for (std::int64_t j = 0; j <= ny; ++j)
+      for (std::int64_t i = 0; i <= nx; ++i) m.points.emplace_back(nodes_[0][i], nodes_[1][j], nodes_[2][k]);
+  auto point = [&](std::int64_t i, std::int64_t j, std::int64_t k) { return i + (nx + 1) * (j + (ny + 1) * k); };
+  // The face of cell (i, j, k) on its upper side along axis d, its points ordered so that
+  // the right-hand normal points towards +d (reversed: towards -d).
+  auto add_face = [&](int d, std::int64_t i, std::int64_t j, std::int64_t k, bool towards_minus) {
+    std::int64_t q[4];
+    if (d == 0) {
+      q[0] = point(i + 1, j, k), q[1] = point(i + 1, j + 1, k), q[2] = point(i + 1, j + 1, k + 1),
+      q[3] = point(i + 1, j, k + 1);
+    } else if (d == 1) {
+      q[0] = point(i, j + 1, k), q[1] = point(i, j + 1, k + 1), q[2] = point(i + 1, j + 1, k + 1),
+      q[3] = point(i + 1, j + 1, k);
+    } else {
+      q[0] = point(i, j, k + 1), q[1] = point(i + 1, j, k + 1), q[2] = point(i + 1, j + 1, k + 1),
+      q[3] = point(i, j + 1, k + 1);
+    }
+    if (towards_minus) std::swap(q[1], q[3]);
+    m.face_points.insert(m.face_points.end(), q, q + 4);
+    m.face_offsets.push_back(static_cast<std::int64_t>(m.face_points.size()));
+  };
+  // Internal faces: by owner, then by neighbour (c + 1, c + nx, c + nx * ny increase).
+  for (std::int64_t k = 0; k < nz; ++k)
+    for (std::int64_t j = 0; j < ny; ++j)
+      for (std::int64_t i = 0; i < nx; ++i) {
+        const std::int64_t c = index(i, j, k);
+        const bool up[3] = {i + 1 < nx, j + 1 < ny, k + 1 < nz};
+        const std::int64_t next[3] = {c + 1, c + nx, c + nx * ny};
+        for (int d = 0; d < 3; ++d) {
+          if (!up[d]) continue;
+          add_face(d, i, j, k, false);
+          m.owner.push_back(c);
+          m.neighbour.push_back(next[d]);
+        }
+      }
+  // Boundary patches, each face pointing out of the grid.
+  const char* names[6] = {"xmin", "xmax", "ymin", "ymax", "zmin", "zmax"};
+  for (int side = 0; side < 6; ++side) {
+    const int d = side / 2;
+    const bool upper = side % 2 == 1;
+    PolyPatch patch{names[side], "patch", m.face_count(), 0, {}, false};
+    for (std::int64_t k = 0; k < nz; ++k)
+      for (std::int64_t j = 0; j < ny; ++j)
+        for (std::int64_t i = 0; i < nx; ++i) {
+          const std::int64_t at[3] = {i, j, k};
+          if (at[d] != (upper ? n_[d] - 1 : 0)) continue;
+          // A lower face is the upper face of the cell below, pointing towards -d.
+          std::int64_t b[3] = {i, j, k};
+          if (!upper) --b[d];
+          add_face(d, b[0], b[1], b[2], !upper);
+          m.owner.push_back(index(i, j, k));
+          ++patch.n_faces;
+        }
+    m.patches.push_back(patch);
+  }
+  return m;
+}
+
 }  // namespace vfe

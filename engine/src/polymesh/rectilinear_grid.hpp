@@ -1,6 +1,8 @@
 // Rectilinear grid: per-axis node coordinates, O(log n) point location, x-fastest order.
 #pragma once
 
+#include "polymesh/polymesh_reader.hpp"
+
 #include <Eigen/Core>
 
 #include <array>
@@ -43,6 +45,11 @@ class RectilinearGrid {
   Eigen::Vector3d cell_centre(std::int64_t c) const;
   /// Volumes of all cells in cell order.
   std::vector<double> cell_volumes() const;
+
+  /// The same cells as an OpenFOAM-style polyMesh (hexahedra in this grid's cell order,
+  /// internal faces in upper-triangular order, boundary patches xmin, xmax, ymin, ymax,
+  /// zmin, zmax), so every polyMesh method and locator serves it.
+  PolyMeshData polymesh_data() const;
 
  private:
   std::array<std::vector<double>, 3> nodes_;
