@@ -122,6 +122,82 @@ void exact(const RectilinearContext& ctx, Scratch& s, const Particle& p) {
   if (rest > 1e-12 * p.volume) outside_rect(ctx, s, p, rest, c, flagged);
 }
 
+/// pmm: the sub-elements located within the window of cells the particle can reach (per
+/// axis a short search among the window's nodes), summed per window cell, then emitted
+/// once per cell; window cells beyond a non-periodic side are outside the mesh.
+void deposit_template(const RectilinearContext& ctx, Scratch& s, const Particle& p, const kernels::ParticleTemplate& t,
+                      const Eigen::Matrix3d& rotation) {
+  const RectilinearGrid& grid = ctx.grid;
+  const double half = p.radius * t.reach;
+  std::int64_t lo[3];
+  int m[3];
+  for (int d = 0; d < 3; ++d) {
+    const std::int64_t n = grid.cells()[d];
+    std::int64_t a, b;
+    if (periodic(ctx, d)) {
+      a = periodic_axis_index(grid, d, p.centre[d] - half);
+      b = periodic_axis_index(grid, d, p.centre[d] + half);
+    } else {  // -1 and n stand for everything beyond either side
+      a = std::clamp<std::int64_t>(grid.axis_index(d, p.centre[d] - half), -1, n);
+      b = std::clamp<std::int64_t>(grid.axis_index(d, p.centre[d] + half), -1, n);
+    }
+    lo[d] = a;
+    m[d] = static_cast<int>(b - a + 1);
+    // The window's inner nodes: the boundaries between its cells.
+    s.nodes[d].resize(static_cast<std::size_t>(std::max(m[d] - 1, 0)));
+    for (int i = 1; i < m[d]; ++i) s.nodes[d][i - 1] = node(grid, d, a + i);
+  }
+  const std::size_t cells = std::size_t(m[0]) * std::size_t(m[1]) * std::size_t(m[2]);
+  s.window.assign(cells, 0.0);
+  const Eigen::Matrix3d transform = rotation * p.radius;
+  for (std::size_t q = 0; q < t.size(); ++q) {
+    const Eigen::Vector3d x = p.centre + transform * t.points[q];
+    std::size_t local = 0, stride = 1;
+    for (int d = 0; d < 3; ++d) {
+      const auto& inner = s.nodes[d];
+      const auto i = static_cast<std::size_t>(std::upper_bound(inner.begin(), inner.end(), x[d]) - inner.begin());
+      local += i * stride;
+      stride *= static_cast<std::size_t>(m[d]);
+    }
+    s.window[local] += t.fractions[q];
+  }
+  bool flagged = false;
+  std::size_t local = 0;
+  for (int k = 0; k < m[2]; ++k)
+    for (int j = 0; j < m[1]; ++j)
+      for (int i = 0; i < m[0]; ++i, ++local) {
+        const double v = p.volume * s.window[local];
+        if (v == 0.0) continue;
+        const std::int64_t g[3] = {lo[0] + i, lo[1] + j, lo[2] + k};
+        std::int64_t c[3];
+        bool out = false;
+        for (int d = 0; d < 3; ++d) {
+          const std::int64_t n = grid.cells()[d];
+          if (periodic(ctx, d)) {
+            c[d] = ((g[d] % n) + n) % n;
+          } else {
+            out |= g[d] < 0 || g[d] >= n;
+            c[d] = std::clamp<std::int64_t>(g[d], 0, n - 1);
+          }
+        }
+        const std::int64_t cell = grid.index(c[0], c[1], c[2]);
+        if (!out) {
+          s.add(cell, v);
+          continue;
+        }
+        if (!flagged) {
+          flagged = true;
+          ++s.outside_particles;
+        }
+        switch (ctx.opts.outside) {
+          case Outside::nearest: s.add(cell, v); break;
+          case Outside::centre: s.add(grid.nearest(p.centre), v); break;
+          case Outside::drop: s.add(grid.cell_count(), v); break;
+          case Outside::error: s.first_error = std::min(s.first_error, p.index); break;
+        }
+      }
+}
+
 }  // namespace
 
 void rectilinear_particle(const RectilinearContext& ctx, Scratch& s, const Particle& p,
@@ -148,9 +224,7 @@ void rectilinear_particle(const RectilinearContext& ctx, Scratch& s, const Parti
     return;
   }
   s.sub_elements += static_cast<std::int64_t>(t->size());
-  const Eigen::Matrix3d transform = rotation * p.radius;
-  for (std::size_t q = 0; q < t->size(); ++q)
-    deposit_at(ctx, s, p, p.centre + transform * t->points[q], p.volume * t->fractions[q], flagged);
+  deposit_template(ctx, s, p, *t, rotation);
 }
 
 }  // namespace vfe::detail
