@@ -9,15 +9,9 @@
 namespace vfe::detail {
 
 void divided_particle(const Context& ctx, Scratch& s, const Particle& p) {
-  s.count_grid(kernels::kDividedPoints);
-  if (const std::int64_t cell = single_cell(ctx, p.centre, Eigen::Vector3d::Constant(p.radius)); cell >= 0) {
-    ++s.fast_path;
-    s.add(cell, p.volume);
-    return;
-  }
-  s.sub_elements += kernels::kDividedPoints;
   const Outside policy = ctx.opts.outside == Outside::nearest ? Outside::centre : ctx.opts.outside;
-  deposit_points(ctx, s, p, ctx.divided, Eigen::Matrix3d::Identity(), policy);
+  const Eigen::Matrix3d identity = Eigen::Matrix3d::Identity();  // CFDEM's points are not rotated
+  deposit_points(ctx, s, p, ctx.divided, &identity, policy);
 }
 
 }  // namespace vfe::detail

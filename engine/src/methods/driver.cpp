@@ -116,16 +116,27 @@ void emit_window(const Context& ctx, Scratch& s, const Particle& p, const Window
 }
 
 void deposit_points(const Context& ctx, Scratch& s, const Particle& p, const kernels::ParticleTemplate& t,
-                    const Eigen::Matrix3d& rotation, Outside policy) {
+                    const Eigen::Matrix3d* rotation, Outside policy) {
   const CartesianGrid& grid = ctx.grid;
   const Eigen::Vector3d& c = p.centre;
   const double r = p.radius;
+  s.count_grid(static_cast<std::int64_t>(t.size()));
   // Map template points straight to cell units relative to the window of cells the
   // particle can reach, so locating is a truncation and a clamp per axis and deposits
   // accumulate without a search.
   const Window w = make_window(grid, c, Eigen::Vector3d::Constant(r * t.reach));
+  if (w.size() == 1 && ctx.opts.fast_path) {  // every sub-element in one cell
+    const std::int64_t gi = grid.cell_axis(0, w.lo[0]), gj = grid.cell_axis(1, w.lo[1]), gk = grid.cell_axis(2, w.lo[2]);
+    if (gi >= 0 && gj >= 0 && gk >= 0) {
+      ++s.fast_path;
+      s.add(grid.index(gi, gj, gk), p.volume);
+      return;
+    }
+  }
+  s.sub_elements += static_cast<std::int64_t>(t.size());
   const Eigen::Vector3d inv_h = grid.spacing().cwiseInverse();
-  const Eigen::Matrix3d to_cells = inv_h.asDiagonal() * rotation * r;
+  const Eigen::Matrix3d to_cells =
+      inv_h.asDiagonal() * (rotation ? *rotation : particle_rotation(ctx.opts, p)) * r;
   Eigen::Vector3d base;
   for (int d = 0; d < 3; ++d) base[d] = grid.axis_coordinate(d, c[d]) - double(w.lo[d]);
   if (base.cwiseAbs().maxCoeff() > 0x1p40) {  // absurdly far from the mesh: one point

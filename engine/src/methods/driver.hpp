@@ -142,10 +142,12 @@ void outside(const Context& ctx, Scratch& s, const Particle& p, double volume, s
 /// outside policy.
 void emit_window(const Context& ctx, Scratch& s, const Particle& p, const Window& w, Outside policy);
 
-/// Deposits every point of a template (unit sphere) mapped by centre + transform * point
-/// to the cell holding it, through the window machinery. transform: rotation times radius.
+/// Deposits every point of a template (unit sphere) mapped by centre + radius * rotation *
+/// point to the cell holding it, through the window machinery; rotation null = the
+/// particle's (particle_rotation). Counts the particle's grid and sub-elements, and takes
+/// the fast path (one deposit) when the whole template lies in one cell.
 void deposit_points(const Context& ctx, Scratch& s, const Particle& p, const kernels::ParticleTemplate& t,
-                    const Eigen::Matrix3d& transform, Outside policy);
+                    const Eigen::Matrix3d* rotation, Outside policy);
 
 /// The rotation of particle p's template under the orientation option.
 Eigen::Matrix3d particle_rotation(const Options& opts, const Particle& p);

@@ -7,16 +7,7 @@
 namespace vfe::detail {
 
 void pmm_particle(const Context& ctx, Scratch& s, const Particle& p) {
-  const kernels::ParticleTemplate& t = ctx.template_for(2 * p.radius);
-  const std::int64_t n = static_cast<std::int64_t>(t.size());
-  s.count_grid(n);
-  if (const std::int64_t cell = single_cell(ctx, p.centre, Eigen::Vector3d::Constant(p.radius)); cell >= 0) {
-    ++s.fast_path;
-    s.add(cell, p.volume);
-    return;
-  }
-  s.sub_elements += n;
-  deposit_points(ctx, s, p, t, particle_rotation(ctx.opts, p), ctx.opts.outside);
+  deposit_points(ctx, s, p, ctx.template_for(2 * p.radius), nullptr, ctx.opts.outside);
 }
 
 Eigen::Matrix3d particle_rotation(const Options& opts, const Particle& p) {
@@ -43,17 +34,7 @@ void shape_particle(const Context& ctx, Scratch& s, const Particle& p, const ker
       outside(ctx, s, p, p.volume, ctx.grid.nearest(at), flagged, ctx.opts.outside);
     return;
   }
-  const kernels::ParticleTemplate& t = *tmpl;
-  const std::int64_t n = static_cast<std::int64_t>(t.size());
-  s.count_grid(n);
-  if (const std::int64_t cell = single_cell(ctx, p.centre, Eigen::Vector3d::Constant(p.radius * t.reach));
-      cell >= 0) {
-    ++s.fast_path;
-    s.add(cell, p.volume);
-    return;
-  }
-  s.sub_elements += n;
-  deposit_points(ctx, s, p, t, rotation, ctx.opts.outside);
+  deposit_points(ctx, s, p, *tmpl, &rotation, ctx.opts.outside);
 }
 
 }  // namespace vfe::detail
