@@ -837,8 +837,18 @@ struct Engine::Impl {
 };
 
 Engine::Engine(const CartesianGridSpec& grid) : impl_(std::make_unique<Impl>(grid)) {}
-Engine::Engine(const PolyMeshSpec& mesh)
-    : impl_(std::make_unique<Impl>(std::make_unique<PolyMesh>(PolyMesh::read(mesh.dir)))) {}
+Engine::Engine(const PolyMeshSpec& mesh) {
+  auto poly = std::make_unique<PolyMesh>(PolyMesh::read(mesh.dir));
+  // Sub-elements leaving through a cyclic patch would need the coupled patch's transform;
+  // without it they would be counted outside the mesh, so refuse rather than lose volume.
+  for (const PolyPatch& patch : poly->patches())
+    if (patch.cyclic)
+      throw Error(VFE_ERROR_UNSUPPORTED,
+                  "polyMesh " + poly->source() + ": patch '" + patch.name + "' is of type " + patch.type +
+                      "; cyclic patches are not supported. Use a mesh without cyclic patches (e.g. change them "
+                      "to walls or patches) or, for a box, a rectilinear or Cartesian grid with periodic axes");
+  impl_ = std::make_unique<Impl>(std::move(poly));
+}
 Engine::Engine(const RectilinearGridSpec& grid) {
   auto rect = std::make_unique<RectilinearGrid>(grid.nodes);
   impl_ = std::make_unique<Impl>(std::make_unique<PolyMesh>(rect->polymesh_data()));

@@ -8,7 +8,12 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <random>
+#include <sstream>
+
+#include <unistd.h>
 
 namespace vfe::test {
 namespace {
@@ -123,6 +128,40 @@ TEST(RectilinearEngine, BadNodesAndUnsupportedMethodsGiveClearErrors) {
   } catch (const Error& err) {
     EXPECT_EQ(err.status(), VFE_ERROR_UNSUPPORTED);
   }
+}
+
+TEST(PolyMeshPeriodic, CyclicPatchesAndPeriodicOptionGiveClearErrors) {
+  namespace fs = std::filesystem;
+  const fs::path src = fs::path(VFE_SOURCE_DIR) / "data/openfoam/box_uniform_10x10x30/constant/polyMesh";
+  const fs::path dir = fs::temp_directory_path() / ("vfe_cyclic_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  for (const auto& f : fs::directory_iterator(src)) fs::copy_file(f.path(), dir / f.path().filename());
+  {
+    Engine plain(PolyMeshSpec{dir.string()});  // the copy is a valid mesh
+    try {
+      plain.configure("periodic=z");
+      FAIL();
+    } catch (const Error& err) {
+      EXPECT_EQ(err.status(), VFE_ERROR_UNSUPPORTED);
+      EXPECT_NE(std::string(err.what()).find("cyclic"), std::string::npos) << err.what();
+    }
+  }
+  std::stringstream text;
+  text << std::ifstream(dir / "boundary").rdbuf();
+  std::string b = text.str();
+  const auto at = b.find("type            patch;");
+  ASSERT_NE(at, std::string::npos);
+  b.replace(at, 22, "type cyclic; neighbourPatch outlet;");
+  std::ofstream(dir / "boundary") << b;
+  try {
+    Engine cyclic(PolyMeshSpec{dir.string()});
+    FAIL();
+  } catch (const Error& err) {
+    EXPECT_EQ(err.status(), VFE_ERROR_UNSUPPORTED);
+    EXPECT_NE(std::string(err.what()).find("'inlet' is of type cyclic"), std::string::npos) << err.what();
+  }
+  fs::remove_all(dir);
 }
 
 }  // namespace
