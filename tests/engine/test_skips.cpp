@@ -10,6 +10,7 @@
 #include <atomic>
 #include <cmath>
 #include <cstdlib>
+#include <initializer_list>
 #include <limits>
 #include <new>
 #include <random>
@@ -194,13 +195,12 @@ TEST(Skips, UnknownReportKeyNamesTheKnownOnes) {
   }
 }
 
-TEST(Skips, SteadyStateComputesAllocateNothing) {
-  const Particles p = random_bed(7, 2000);
-  for (const char* opts : {"method=pmm accumulation=private", "method=pmm accumulation=atomic",
-                           "method=exact touched_only=1", "method=pmm incremental=1",
-                           "method=pmm deterministic=1", "method=direct"}) {
+/// Checks that after a warm-up, computes on engines made by make_engine allocate nothing.
+template <class MakeEngine>
+void expect_no_allocation(const Particles& p, MakeEngine&& make_engine, std::initializer_list<const char*> options) {
+  for (const char* opts : options) {
     for (const int threads : {1, 2}) {
-      Engine e(grid(1.0, 12, 12, 12));
+      Engine e = make_engine();
       e.configure(std::string(opts) + " threads=" + std::to_string(threads));
       std::vector<double> out(e.cell_count());
       for (int i = 0; i < 3; ++i) e.compute(p.view(), out);  // warm-up: templates, scratch
@@ -220,6 +220,23 @@ TEST(Skips, SteadyStateComputesAllocateNothing) {
       }
     }
   }
+}
+
+TEST(Skips, SteadyStateComputesAllocateNothing) {
+  const Particles p = random_bed(7, 2000);
+  expect_no_allocation(p, [] { return Engine(grid(1.0, 12, 12, 12)); },
+                       {"method=pmm accumulation=private", "method=pmm accumulation=atomic",
+                        "method=exact touched_only=1", "method=pmm incremental=1", "method=pmm deterministic=1",
+                        "method=direct", "method=gaussian", "method=divided"});
+  std::vector<double> nodes{0, 1, 2.5, 4, 5, 6, 7, 8, 9, 9.5, 10, 11, 12};
+  expect_no_allocation(p, [&] { return Engine(RectilinearGridSpec{{nodes, nodes, nodes}}); },
+                       {"method=pmm periodic=xz", "method=exact", "method=direct"});
+  // The packed bed of a polyMesh box (spheres scaled into its 10 x 10 x 30 mm).
+  Particles small = p;
+  for (double& x : small.centres) x *= 1e-3 * 10.0 / 12.0;
+  for (double& r : small.radii) r *= 1e-3 * 10.0 / 12.0;
+  expect_no_allocation(small, [] { return Engine(PolyMeshSpec{VFE_SOURCE_DIR "/data/openfoam/box_uniform_10x10x30"}); },
+                       {"method=pmm", "method=exact", "method=direct"});
 }
 
 }  // namespace
