@@ -391,8 +391,7 @@ struct Engine::Impl {
     const bool shape_direct = opts.method == Method::direct;
     if (poly && opts.method != Method::direct && opts.method != Method::pmm && opts.method != Method::exact)
       throw Error(VFE_ERROR_UNSUPPORTED, "method=" + std::string(to_string(opts.method)) +
-                                             " is not available on a polyMesh; use pmm (a large particle_grid "
-                                             "serves as the reference) or direct");
+                                             " is not available on a polyMesh or rectilinear grid; use exact, pmm or direct");
     const detail::PolyContext poly_ctx{locator.get(), opts};
     const std::optional<detail::RectilinearContext> rect_ctx =
         rect ? std::optional<detail::RectilinearContext>(detail::RectilinearContext{*rect, opts}) : std::nullopt;

@@ -160,6 +160,7 @@ std::string polymesh_config(const std::string& mesh_entries) {
          "  - pmm\n"
          "  - {method: pmm, options: \"particle_grid=27\", label: pmm_27}\n"
          "  - exact\n"
+         "  - gaussian\n"
          "reference: {method: pmm, options: \"particle_grid=1000\", label: pmm_ref}\n"
          "threads: 1\n"
          "repeats: 1\n"
@@ -199,12 +200,12 @@ TEST(PolyMeshRun, BoxUniformEndToEnd) {
   opt.foam = true;
   const RunResult res = run_scene(cfg, opt);
 
-  // 2 meshes x (4 methods + the reference, which is not one of them).
-  ASSERT_EQ(res.rows.size(), 10u);
+  // 2 meshes x (5 methods + the reference, which is not one of them).
+  ASSERT_EQ(res.rows.size(), 12u);
   const fs::path csv = res.output / "results.csv";
   ASSERT_TRUE(fs::exists(csv));
   const auto rows = read_csv(csv);
-  ASSERT_EQ(rows.size(), 10u);
+  ASSERT_EQ(rows.size(), 12u);
   for (const auto& row : rows) {
     SCOPED_TRACE(row.at("mesh") + " / " + row.at("method"));
     EXPECT_EQ(row.at("mesh_type"), "polymesh");
@@ -212,7 +213,7 @@ TEST(PolyMeshRun, BoxUniformEndToEnd) {
     EXPECT_EQ(row.at("nx"), "");
     EXPECT_EQ(row.at("particles"), "12");
     const std::string m = row.at("method");
-    if (m == "exact") {  // not available on a polyMesh: a skipped row with the reason
+    if (m == "gaussian") {  // not available on a polyMesh: a skipped row with the reason
       EXPECT_EQ(row.at("status"), "skipped");
       EXPECT_NE(row.at("note").find("polyMesh"), std::string::npos) << row.at("note");
       continue;
@@ -235,7 +236,7 @@ TEST(PolyMeshRun, BoxUniformEndToEnd) {
   // The table says the cell size is a mean, names the reference and the skipped method.
   const std::string t = table.str();
   for (const char* s : {"mesh box:", "polyMesh of 3000 cells", "mean chi", "reference pmm_ref (pmm particle_grid=1000)",
-                        "pmm_ref *", "exact skipped:"})
+                        "pmm_ref *", "gaussian skipped:"})
     EXPECT_NE(t.find(s), std::string::npos) << s << "\n" << t;
 
   // The OpenFOAM fields: one per method, and plain voidfraction = the default method (pmm).
@@ -244,7 +245,7 @@ TEST(PolyMeshRun, BoxUniformEndToEnd) {
   std::vector<double> solid(3000), eps(3000);
   for (const std::string mesh : {"box", "box_pm"}) {
     const fs::path time_dir = res.output / mesh / "0";
-    for (const std::string label : {"direct", "pmm", "pmm_27", "pmm_ref"}) {
+    for (const std::string label : {"direct", "pmm", "pmm_27", "exact", "pmm_ref"}) {
       SCOPED_TRACE(mesh + " / " + label);
       const fs::path file = time_dir / ("voidfraction_" + label);
       ASSERT_TRUE(fs::exists(file));
@@ -272,7 +273,7 @@ TEST(PolyMeshRun, BoxUniformEndToEnd) {
       EXPECT_LT(max_diff, 1e-12);
       EXPECT_LT(min_eps, 0.95);  // the particles are there
     }
-    EXPECT_FALSE(fs::exists(time_dir / "voidfraction_exact"));
+    EXPECT_FALSE(fs::exists(time_dir / "voidfraction_gaussian"));
     const FoamField plain = parse_foam_field(time_dir / "voidfraction");
     EXPECT_EQ(plain.header.at("object"), "voidfraction");
     EXPECT_EQ(plain.values, parse_foam_field(time_dir / "voidfraction_pmm").values);
@@ -286,9 +287,10 @@ TEST(PolyMeshRun, BoxUniformEndToEnd) {
     EXPECT_NE(xml.find("type=\"UnstructuredGrid\""), std::string::npos);
     EXPECT_NE(xml.find("NumberOfCells=\"3000\""), std::string::npos);
     EXPECT_NE(xml.find("NumberOfPoints=\"3751\""), std::string::npos);
-    for (const char* name : {"voidfraction_pmm", "solid_volume_pmm", "voidfraction_pmm_ref", "faces", "faceoffsets"})
+    for (const char* name :
+         {"voidfraction_pmm", "solid_volume_pmm", "voidfraction_pmm_ref", "voidfraction_exact", "faces", "faceoffsets"})
       EXPECT_NE(xml.find("Name=\"" + std::string(name) + "\""), std::string::npos) << name;
-    EXPECT_EQ(xml.find("voidfraction_exact"), std::string::npos);
+    EXPECT_EQ(xml.find("voidfraction_gaussian"), std::string::npos);
   }
 }
 

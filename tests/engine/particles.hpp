@@ -3,8 +3,12 @@
 
 #include <vfe/engine.hpp>
 
+#include <gtest/gtest.h>
+#include <zlib.h>
+
 #include <cstdint>
 #include <numbers>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -47,6 +51,30 @@ inline std::vector<double> run(Engine& e, const Particles& p, const std::string&
   e.compute(p.view(), out);
   return out;
 }
+
+#ifdef VFE_SOURCE_DIR
+/// x y z radius of the settled LIGGGHTS bed in data/liggghts (columns 3-6 of the dump); at
+/// most `limit` particles.
+inline Particles packed_bed(std::size_t limit = 20000) {
+  gzFile f = gzopen(VFE_SOURCE_DIR "/data/liggghts/bed_mono_final.dump.gz", "rb");
+  EXPECT_NE(f, nullptr);
+  Particles p;
+  char line[512];
+  bool atoms = false;
+  while (f && p.radii.size() < limit && gzgets(f, line, sizeof line)) {
+    if (std::string(line).rfind("ITEM: ATOMS", 0) == 0) {
+      atoms = true;
+      continue;
+    }
+    if (!atoms) continue;
+    std::istringstream in(line);
+    double id, type, x, y, z, r;
+    if (in >> id >> type >> x >> y >> z >> r) p.add(x, y, z, r);
+  }
+  if (f) gzclose(f);
+  return p;
+}
+#endif
 
 inline double total(const std::vector<double>& f) {
   double s = 0;

@@ -16,35 +16,12 @@
 #include <vector>
 
 using vfe::test::Particles;
+using vfe::test::packed_bed;
 using vfe::test::total;
 
 namespace {
 
 const std::string kData = std::string(VFE_SOURCE_DIR) + "/data/";
-
-/// x y z radius of the settled LIGGGHTS bed (columns 3-6 of the dump).
-Particles packed_bed() {
-  gzFile f = gzopen((kData + "liggghts/bed_mono_final.dump.gz").c_str(), "rb");
-  EXPECT_NE(f, nullptr);
-  Particles p;
-  char line[512];
-  bool atoms = false;
-  while (f && gzgets(f, line, sizeof line)) {
-    if (std::string(line).rfind("ITEM: ATOMS", 0) == 0) {
-      atoms = true;
-      continue;
-    }
-    if (!atoms) continue;
-    std::istringstream in(line);
-    double id, type, x, y, z, r;
-    if (in >> id >> type >> x >> y >> z >> r) {
-      p.centres.insert(p.centres.end(), {x, y, z});
-      p.radii.push_back(r);
-    }
-  }
-  if (f) gzclose(f);
-  return p;
-}
 
 }  // namespace
 
@@ -102,7 +79,7 @@ TEST(PolyMeshEngine, UnsupportedMethodsAndBadPaths) {
   p.centres = {0.005, 0.005, 0.005};
   p.radii = {0.0005};
   std::vector<double> f(e.cell_count(), 3.0);
-  e.configure("method=exact");
+  e.configure("method=gaussian");
   try {
     e.compute(p.view(), f);
     FAIL();

@@ -1,13 +1,10 @@
 // direct and pmm on an OpenFOAM polyMesh: point location by the cell locator (spatial
-// hash for the particle's centre, neighbour walk from there for its sub-elements).
+// hash for the particle's centre, neighbour walk from there for its sub-elements); the
+// fast path and outside policy that exact shares.
 #include "methods/polymesh.hpp"
 
 namespace vfe::detail {
 
-namespace {
-
-/// True when the ball (c, r) lies inside cell `cell`: deeper than r plus the warp below
-/// every face plane. Sufficient for the fast path (a cell that is not convex answers no).
 bool ball_inside_cell(const PolyMesh& mesh, std::int64_t cell, const Eigen::Vector3d& c, double r) {
   if (!mesh.cell_is_convex(cell)) return false;
   for (const std::int64_t f : mesh.cell_faces(cell)) {
@@ -31,8 +28,6 @@ void outside_poly(const PolyContext& ctx, Scratch& s, const Particle& p, double 
     case Outside::error: s.first_error = std::min(s.first_error, p.index); break;
   }
 }
-
-}  // namespace
 
 void polymesh_particle(const PolyContext& ctx, Scratch& s, const Particle& p, const kernels::ParticleTemplate* t,
                        const Eigen::Vector3d& centroid) {

@@ -1,12 +1,81 @@
-// exact on an OpenFOAM polyMesh.
+// exact on an OpenFOAM polyMesh: the sphere's exact overlap with every cell whose bounds
+// reach its box (kernels/sphere_polyhedron_overlap.hpp); what lies beyond the mesh follows
+// the outside policy.
 #include "methods/polymesh.hpp"
 
-#include <vfe/engine.hpp>
+#include <vfe/kernels/sphere_polyhedron_overlap.hpp>
 
 namespace vfe::detail {
 
-void polymesh_exact_particle(const PolyContext&, Scratch&, const Particle&) {
-  throw Error(VFE_ERROR_UNSUPPORTED, "method=exact is not available on a polyMesh yet; use pmm or direct");
+namespace {
+
+/// Cell c's boundary as outward polygons into s.cell_*: a planar face as its polygon, a
+/// warped one as the fan (apex, P_i, P_i+1). Both cells of a face thus see the same
+/// surface (the point-location one), and their overlaps add up to that of their union.
+void cell_boundary(const PolyMesh& mesh, std::int64_t c, Scratch& s) {
+  s.cell_points.clear();
+  s.cell_face_points.clear();
+  s.cell_face_offsets.assign(1, 0);
+  const auto close_face = [&] { s.cell_face_offsets.push_back(static_cast<std::int32_t>(s.cell_face_points.size())); };
+  for (const std::int64_t f : mesh.cell_faces(c)) {
+    const auto face = mesh.face(f);
+    const auto n = static_cast<std::int32_t>(face.size());
+    const auto first = static_cast<std::int32_t>(s.cell_points.size());
+    for (const std::int64_t q : face) s.cell_points.push_back(mesh.points()[static_cast<std::size_t>(q)]);
+    // The points' right-hand normal points out of the owner: the neighbour takes them reversed.
+    const bool owned = mesh.owner(f) == c;
+    const auto point = [&](std::int32_t i) { return first + (owned ? i : n - 1 - i); };
+    if (mesh.face_plane_triangle(f) >= 0) {
+      for (std::int32_t i = 0; i < n; ++i) s.cell_face_points.push_back(point(i));
+      close_face();
+    } else {
+      const auto apex = static_cast<std::int32_t>(s.cell_points.size());
+      s.cell_points.push_back(mesh.face_apex(f));
+      for (std::int32_t i = 0; i < n; ++i) {
+        s.cell_face_points.insert(s.cell_face_points.end(), {apex, point(i), point(i + 1 == n ? 0 : i + 1)});
+        close_face();
+      }
+    }
+  }
+}
+
+}  // namespace
+
+void polymesh_exact_particle(const PolyContext& ctx, Scratch& s, const Particle& p) {
+  const PolyMesh& mesh = ctx.locator->mesh();
+  const Eigen::Vector3d& c = p.centre;
+  const double r = p.radius, r2 = r * r;
+  const std::int64_t centre_cell = ctx.locator->locate(c);
+  if (centre_cell >= 0 && ball_inside_cell(mesh, centre_cell, c, r)) {
+    ++s.fast_path;
+    s.add(centre_cell, p.volume);
+    return;
+  }
+  const Eigen::Vector3d half = Eigen::Vector3d::Constant(r);
+  ctx.locator->hash().cells_in_box(Eigen::AlignedBox3d(c - half, c + half), s.candidate_cells);
+  s.sub_elements += static_cast<std::int64_t>(s.candidate_cells.size());
+  double inside = 0;
+  for (const std::int64_t cell : s.candidate_cells) {
+    const Eigen::AlignedBox3d& box = mesh.cell_bounds(cell);
+    if (box.squaredExteriorDistance(c) >= r2) continue;
+    // A cell inside the ball gives its volume (OpenFOAM's, the volume of the same surface).
+    const bool contained = (box.min() - c).cwiseAbs().cwiseMax((box.max() - c).cwiseAbs()).squaredNorm() <= r2;
+    double v;
+    if (contained) {
+      v = mesh.cell_volume(cell);
+    } else {
+      cell_boundary(mesh, cell, s);
+      v = kernels::sphere_polyhedron_overlap(c, r, s.cell_points, s.cell_face_offsets, s.cell_face_points);
+    }
+    if (v > 0) {
+      s.deposits.push_back({cell, v});  // candidates are distinct: no merge needed
+      inside += v;
+    }
+  }
+  // What the cells do not hold lies beyond the mesh (beyond round-off).
+  const double rest = p.volume - inside;
+  bool flagged = false;
+  if (rest > 1e-12 * p.volume) outside_poly(ctx, s, p, rest, c, centre_cell, flagged);
 }
 
 }  // namespace vfe::detail

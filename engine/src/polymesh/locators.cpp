@@ -162,6 +162,28 @@ std::span<const std::uint32_t> SpatialHash::candidates(const Eigen::Vector3d& p)
   return {cells_.data() + begin, static_cast<std::size_t>(end - begin)};
 }
 
+void SpatialHash::cells_in_box(const Eigen::AlignedBox3d& box, std::vector<std::int64_t>& out) const {
+  out.clear();
+  if (!(box.min().array() <= hi_.array()).all() || !(box.max().array() >= lo_.array()).all()) return;
+  const std::int64_t i0 = bin(0, box.min().x()), i1 = bin(0, box.max().x());
+  const std::int64_t j0 = bin(1, box.min().y()), j1 = bin(1, box.max().y());
+  const std::int64_t k0 = bin(2, box.min().z()), k1 = bin(2, box.max().z());
+  for (std::int64_t k = k0; k <= k1; ++k)
+    for (std::int64_t j = j0; j <= j1; ++j)
+      for (std::int64_t i = i0; i <= i1; ++i) {
+        const auto b = static_cast<std::size_t>(i + nb_[0] * (j + nb_[1] * k));
+        for (auto e = offsets_[b]; e < offsets_[b + 1]; ++e) {
+          const std::uint32_t c = cells_[static_cast<std::size_t>(e)];
+          const Eigen::AlignedBox3d& cb = mesh_->cell_bounds(c);
+          // A cell is listed in every bin its box overlaps: take it in the first of those
+          // that the query visits.
+          if (cb.intersects(box) && i == std::max(i0, bin(0, cb.min().x())) && j == std::max(j0, bin(1, cb.min().y())) &&
+              k == std::max(k0, bin(2, cb.min().z())))
+            out.push_back(c);
+        }
+      }
+}
+
 std::int64_t SpatialHash::locate(const Eigen::Vector3d& p) const {
   for (const auto c : candidates(p))
     if (cell_contains(*mesh_, c, p)) return c;

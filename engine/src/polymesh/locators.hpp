@@ -56,6 +56,9 @@ class SpatialHash {
   std::int64_t locate(const Eigen::Vector3d& p) const;
   /// Cells whose bounds overlap the bin of p, in increasing order (empty outside the box).
   std::span<const std::uint32_t> candidates(const Eigen::Vector3d& p) const;
+  /// The cells whose bounding boxes overlap `box` (closed), each once: replaces the
+  /// contents of out (no allocation once out has the capacity).
+  void cells_in_box(const Eigen::AlignedBox3d& box, std::vector<std::int64_t>& out) const;
   /// True when p is in the hashed box (closed); points outside it are outside the mesh.
   bool in_box(const Eigen::Vector3d& p) const {
     return p.x() >= lo_.x() && p.x() <= hi_.x() && p.y() >= lo_.y() && p.y() <= hi_.y() && p.z() >= lo_.z() &&

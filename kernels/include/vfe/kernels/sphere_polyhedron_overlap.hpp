@@ -1,0 +1,36 @@
+// Exact overlap volume of a sphere with a polyhedron given by its boundary faces.
+#pragma once
+
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <span>
+
+namespace vfe::kernels {
+
+/// Volume of the ball |x - centre| <= radius intersected with the polyhedron bounded by
+/// `face_offsets.size() - 1` planar polygon faces: face f has the vertices
+/// vertices[face_vertices[k]] for k in [face_offsets[f], face_offsets[f + 1]), ordered
+/// counter-clockwise seen from outside (outward right-hand normal). Faces may be
+/// non-convex polygons; the polyhedron may be non-convex (any closed, consistently
+/// oriented surface: the result is the integral of its winding number over the ball).
+/// Closed form (no quadrature), absolute error a few 1e-16 of the ball volume:
+///  - exactly 0 when the ball misses the vertices' bounding box, or when no face reaches
+///    into the open ball and the centre is outside;
+///  - exactly the ball volume when no face reaches into the open ball and the centre is
+///    inside;
+///  - the polyhedron's volume (divergence theorem) when every vertex is in the ball;
+///  - otherwise clamped to [0, min(ball volume, polyhedron volume)] (round-off only).
+/// 0 for radius <= 0; faces of zero area and edges of zero length contribute nothing.
+/// Allocation-free.
+double sphere_polyhedron_overlap(const Eigen::Vector3d& centre, double radius,
+                                 std::span<const Eigen::Vector3d> vertices,
+                                 std::span<const std::int32_t> face_offsets,
+                                 std::span<const std::int32_t> face_vertices);
+
+/// Volume of the ball intersected with the tetrahedron (a, b, c, d), either orientation;
+/// 0 for a flat tetrahedron.
+double sphere_tetrahedron_overlap(const Eigen::Vector3d& centre, double radius, const Eigen::Vector3d& a,
+                                  const Eigen::Vector3d& b, const Eigen::Vector3d& c, const Eigen::Vector3d& d);
+
+}  // namespace vfe::kernels
