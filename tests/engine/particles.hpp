@@ -6,8 +6,10 @@
 #include <gtest/gtest.h>
 #include <zlib.h>
 
+#include <cmath>
 #include <cstdint>
 #include <numbers>
+#include <random>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -75,6 +77,25 @@ inline Particles packed_bed(std::size_t limit = 20000) {
   return p;
 }
 #endif
+
+/// n spheres with centres uniform in [lo, hi)^3 and radii uniform in [rmin, rmax) (seeded).
+inline Particles random_spheres(std::uint32_t seed, int n, double lo, double hi, double rmin, double rmax) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> pos(lo, hi), rad(rmin, rmax);
+  Particles p;
+  for (int i = 0; i < n; ++i) {
+    const double x = pos(rng), y = pos(rng), z = pos(rng);
+    p.add(x, y, z, rad(rng));
+  }
+  return p;
+}
+
+/// Sum of |a - b| over the cells.
+inline double l1(const std::vector<double>& a, const std::vector<double>& b) {
+  double s = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) s += std::abs(a[i] - b[i]);
+  return s;
+}
 
 inline double total(const std::vector<double>& f) {
   double s = 0;

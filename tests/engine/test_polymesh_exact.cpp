@@ -23,17 +23,12 @@
 
 using vfe::test::Particles;
 using vfe::test::packed_bed;
+using vfe::test::l1;
 using vfe::test::total;
 
 namespace {
 
 const std::string kData = std::string(VFE_SOURCE_DIR) + "/data/";
-
-double l1(const std::vector<double>& a, const std::vector<double>& b) {
-  double s = 0;
-  for (std::size_t c = 0; c < a.size(); ++c) s += std::abs(a[c] - b[c]);
-  return s;
-}
 
 }  // namespace
 

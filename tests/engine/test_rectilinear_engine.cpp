@@ -24,22 +24,8 @@ std::vector<double> uniform_nodes(double lo, double h, int cells) {
   return x;
 }
 
-Particles spheres_in_box(std::uint32_t seed, int n, double lo, double hi, double rmin, double rmax) {
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> pos(lo, hi), rad(rmin, rmax);
-  Particles p;
-  for (int i = 0; i < n; ++i) p.add(pos(rng), pos(rng), pos(rng), rad(rng));
-  return p;
-}
-
-double l1(const std::vector<double>& a, const std::vector<double>& b) {
-  double s = 0;
-  for (std::size_t i = 0; i < a.size(); ++i) s += std::abs(a[i] - b[i]);
-  return s;
-}
-
 TEST(RectilinearEngine, UniformNodesGiveTheCartesianFields) {
-  const Particles p = spheres_in_box(1, 300, 0.8, 7.2, 0.3, 0.7);
+  const Particles p = random_spheres(1, 300, 0.8, 7.2, 0.3, 0.7);
   Engine cart(grid(1.0, 8, 8, 8));
   Engine rect(RectilinearGridSpec{{uniform_nodes(0, 1, 8), uniform_nodes(0, 1, 8), uniform_nodes(0, 1, 8)}});
   ASSERT_EQ(rect.cell_count(), 512);
@@ -63,7 +49,7 @@ TEST(RectilinearEngine, GradedExactEqualsFineCartesianExactSummedPerCell) {
   const std::vector<double> z = {0, 2.0, 2.25, 3.5, 6.0};
   Engine rect(RectilinearGridSpec{{x, y, z}});
   Engine fine(grid(0.25, 24, 24, 24));
-  const Particles p = spheres_in_box(2, 150, 0.6, 5.4, 0.2, 0.6);
+  const Particles p = random_spheres(2, 150, 0.6, 5.4, 0.2, 0.6);
   const auto coarse = run(rect, p, "method=exact outside=error");
   const auto fine_field = run(fine, p, "method=exact outside=error");
   std::vector<double> summed(coarse.size(), 0.0);

@@ -34,19 +34,7 @@ namespace vfe::test {
 namespace {
 
 /// A loose bed of spheres with diameters 0.8..1.2 in a 12 x 12 x 12 box.
-Particles random_bed(std::uint32_t seed, int n) {
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> pos(0.7, 11.3), rad(0.4, 0.6);
-  Particles p;
-  for (int i = 0; i < n; ++i) p.add(pos(rng), pos(rng), pos(rng), rad(rng));
-  return p;
-}
-
-double l1(const std::vector<double>& a, const std::vector<double>& b) {
-  double s = 0;
-  for (std::size_t i = 0; i < a.size(); ++i) s += std::abs(a[i] - b[i]);
-  return s;
-}
+Particles random_bed(std::uint32_t seed, int n) { return random_spheres(seed, n, 0.7, 11.3, 0.4, 0.6); }
 
 /// Moves every k-th particle by a random step of up to `step` per axis.
 void move_some(Particles& p, std::uint32_t seed, int k, double step) {
