@@ -5,8 +5,12 @@
 //                 [--superficial-velocity U --fluid-dt DT [--diameter D]] [--output DIR]
 //                 [--shape SPEC [--reference-grid N]]
 //   vfe study CONFIG.yaml [--output DIR] [--threads N] [--repeats N] [--chi LIST] [--base FAMILY] [--quiet]
+//   vfe bench [--scene bed|stream] [--dispersity mono|poly] [--particles LIST] [--chi LIST] [--threads LIST]
+//             [--method LIST] [--particle-grid auto|N] [--options "key=value ..."] [--repeats N] [--seed N]
+//             [--no-limits] [--output DIR] [--quiet]
 //   vfe --version
 
+#include "bench_cmd.hpp"
 #include "config.hpp"
 #include "run.hpp"
 #include "stability_cmd.hpp"
@@ -122,6 +126,30 @@ int main(int argc, char** argv) {
   study->add_option("--base", study_base, "Family compared with every other point")->capture_default_str();
   study->add_flag("-q,--quiet", study_quiet, "Print only the tables, warnings and errors");
 
+  vfe::apps::BenchCommand bench_cmd;
+  bool bench_quiet = false;
+  CLI::App* bench = app.add_subcommand(
+      "bench", "Throughput of the methods on generated scenes (packed bed or dilute stream): time, sub-elements/s, "
+               "memory, thread speed-up and measured limits (bench.csv, limits.csv, bench.json)");
+  bench->add_option("--scene", bench_cmd.scene, "bed (packed, solid fraction 0.58) or stream (dilute, 0.05)")
+      ->capture_default_str();
+  bench->add_option("--dispersity", bench_cmd.dispersity, "mono (diameter 1) or poly (uniform in [0.7, 1.3])")
+      ->capture_default_str();
+  bench->add_option("-n,--particles", bench_cmd.particles, "Particle counts, a list (default 1e4,1e5; e.g. 1e4,1e5,1e6,4e6)")
+      ->delimiter(',');
+  bench->add_option("--chi", bench_cmd.chi, "Cell size / mean diameter, a list (default 2; e.g. 0.5,1,2,4)")->delimiter(',');
+  bench->add_option("-t,--threads", bench_cmd.threads, "Thread counts, a list (default 1,2; 0 = all)")->delimiter(',');
+  bench->add_option("--method", bench_cmd.methods, "Engine methods, a list (default direct,pmm,exact)")->delimiter(',');
+  bench->add_option("--particle-grid", bench_cmd.particle_grid, "pmm's particle_grid: auto or a count")
+      ->capture_default_str();
+  bench->add_option("--options", bench_cmd.options, "More engine options, \"key=value ...\" (e.g. fast_path=off)");
+  bench->add_option("-r,--repeats", bench_cmd.repeats, "Timed computes after one warm-up (the median is reported)")
+      ->capture_default_str();
+  bench->add_option("--seed", bench_cmd.seed, "Seed of the generated scene")->capture_default_str();
+  bench->add_flag("!--no-limits", bench_cmd.limits, "Skip the bandwidth and locate limits (e.g. to profile a method)");
+  bench->add_option("-o,--output", bench_cmd.output, "Output folder")->capture_default_str();
+  bench->add_flag("-q,--quiet", bench_quiet, "Print only the table, warnings and errors");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -152,6 +180,10 @@ int main(int argc, char** argv) {
       opt.logger = vfe::apps::make_app_logger(study_quiet);
       opt.table = &std::cout;
       vfe::apps::run_study(cfg, opt);
+    } else if (bench->parsed()) {
+      bench_cmd.logger = vfe::apps::make_app_logger(bench_quiet);
+      bench_cmd.table = &std::cout;
+      vfe::apps::run_bench(bench_cmd);
     } else if (stability->parsed()) {
       // --step takes a fraction (1/200) or a number.
       const auto slash = stab_step.find('/');

@@ -1,14 +1,23 @@
 // The engine on OpenFOAM polyMeshes: same fields as the Cartesian grid of the same
-// cells, conservation on the cylinder and snappyHexMesh meshes with real particles.
+// cells, conservation on the cylinder and snappyHexMesh meshes with real particles, pmm's
+// sub-elements where the point locator puts them.
 #include <vfe/engine.hpp>
 
+#include "methods/polymesh.hpp"
+#include "options.hpp"
 #include "particles.hpp"
+#include "polymesh/locators.hpp"
+#include "polymesh/polymesh.hpp"
+
+#include <vfe/kernels/particle_template.hpp>
 
 #include <gtest/gtest.h>
 
 #include <zlib.h>
 
+#include <algorithm>
 #include <cmath>
+#include <map>
 #include <numbers>
 #include <random>
 #include <sstream>
@@ -93,5 +102,109 @@ TEST(PolyMeshEngine, UnsupportedMethodsAndBadPaths) {
     FAIL();
   } catch (const vfe::Error& err) {
     EXPECT_EQ(err.status(), VFE_ERROR_IO);
+  }
+}
+
+namespace {
+
+struct SubElementCheck {
+  std::int64_t particles = 0, points = 0, outside = 0, brute_force = 0;
+};
+
+/// Runs pmm's polyMesh driver with template t on every stride-th particle of bed and
+/// compares each particle's deposits with the plain per-point location: every sub-element
+/// by CellLocator::locate_from from the centre's cell (every 61st also by brute force),
+/// outside ones by the policy (nearest: KdTreeLocator::nearest_cell of the point).
+void check_sub_elements(const vfe::PolyMesh& mesh, const vfe::CellLocator& locator, const Particles& bed,
+                        const vfe::kernels::ParticleTemplate& t, std::size_t stride, vfe::Outside outside,
+                        vfe::detail::Scratch& s, SubElementCheck& count) {
+  vfe::Options opts;
+  opts.outside = outside;
+  const vfe::detail::PolyContext ctx{&locator, opts};
+  std::map<std::int64_t, double> expected;
+  for (std::size_t i = 0; i < bed.radii.size(); i += stride) {
+    const double r = bed.radii[i];
+    const Eigen::Vector3d centre(bed.centres[3 * i], bed.centres[3 * i + 1], bed.centres[3 * i + 2]);
+    const vfe::detail::Particle p{static_cast<std::int64_t>(i), centre, r, 4.0 / 3.0 * std::numbers::pi * r * r * r,
+                                  nullptr};
+    s.deposits.clear();
+    vfe::detail::polymesh_particle(ctx, s, p, &t, Eigen::Vector3d::Zero());
+
+    expected.clear();
+    const std::int64_t centre_cell = locator.locate(p.centre);
+    const Eigen::Matrix3d transform = vfe::detail::particle_rotation(opts, p) * p.radius;
+    for (std::size_t q = 0; q < t.size(); ++q) {
+      const Eigen::Vector3d x = p.centre + transform * t.points[q];
+      std::int64_t cell = locator.locate_from(x, centre_cell);
+      if (count.points++ % 61 == 0) {
+        ASSERT_EQ(cell, vfe::locate_brute_force(mesh, x)) << "particle " << i << " point " << q;
+        ++count.brute_force;
+      }
+      if (cell < 0) {
+        ++count.outside;
+        switch (outside) {
+          case vfe::Outside::nearest: cell = locator.nearest_cell(x); break;
+          case vfe::Outside::centre: cell = centre_cell >= 0 ? centre_cell : locator.nearest_cell(p.centre); break;
+          default: cell = mesh.cell_count(); break;  // the dropped-volume slot
+        }
+      }
+      expected[cell] += p.volume * t.fractions[q];
+    }
+    std::sort(s.deposits.begin(), s.deposits.end(),
+              [](const vfe::detail::Deposit& a, const vfe::detail::Deposit& b) { return a.cell < b.cell; });
+    ASSERT_EQ(s.deposits.size(), expected.size()) << "particle " << i;
+    std::size_t k = 0;
+    for (const auto& [cell, volume] : expected) {
+      ASSERT_EQ(s.deposits[k].cell, cell) << "particle " << i;
+      EXPECT_NEAR(s.deposits[k].volume, volume, 1e-13 * p.volume) << "particle " << i << " cell " << cell;
+      ++k;
+    }
+    ++count.particles;
+  }
+}
+
+}  // namespace
+
+TEST(PolyMeshEngine, SubElementSearchMatchesThePointLocator) {
+  // Every 10th or 20th particle of the bed (the first ones all lie at the bottom, far from
+  // the snappy mesh's tube), whole particles outside the mesh included. The cylinder and
+  // snappy meshes take the walks (the cylinder's core is boxes), box_graded the lattice.
+  const Particles bed = packed_bed();
+  vfe::detail::Scratch s;  // shared by everything, as a thread's is
+  for (const char* name : {"cylinder_ogrid_coarse", "snappy_obstacle", "box_graded"}) {
+    const vfe::PolyMesh mesh = vfe::PolyMesh::read(kData + "openfoam/" + name);
+    const vfe::CellLocator locator(mesh);
+    SubElementCheck count;
+    using vfe::kernels::make_fibonacci_template;
+    using vfe::Outside;
+    check_sub_elements(mesh, locator, bed, make_fibonacci_template(27), 10, Outside::nearest, s, count);
+    check_sub_elements(mesh, locator, bed, make_fibonacci_template(343), 20, Outside::nearest, s, count);
+    check_sub_elements(mesh, locator, bed, make_fibonacci_template(8000), 397, Outside::nearest, s, count);
+    check_sub_elements(mesh, locator, bed, vfe::kernels::make_spherical_template(125), 20, Outside::drop, s, count);
+    check_sub_elements(mesh, locator, bed, vfe::kernels::make_voxel_template(1000), 83, Outside::centre, s, count);
+    EXPECT_GT(count.particles, 4000) << name;
+    EXPECT_GT(count.brute_force, count.points / 62) << name;
+    if (std::string(name) != "box_graded") {
+      EXPECT_GT(count.outside, count.points / 50) << name;  // the outside policies are exercised
+    }
+  }
+}
+
+TEST(PolyMeshEngine, SortedHashBoxQueryFindsEveryOverlappingCellOnce) {
+  for (const char* name : {"cylinder_ogrid_coarse", "snappy_obstacle"}) {
+    const vfe::PolyMesh mesh = vfe::PolyMesh::read(kData + "openfoam/" + name);
+    const vfe::SpatialHash hash(mesh);
+    std::mt19937_64 rng(5);
+    std::uniform_real_distribution<double> u(-0.2, 1.2), size(0, 0.004);
+    std::vector<std::int64_t> found, expected;
+    for (int trial = 0; trial < 200; ++trial) {
+      const Eigen::Vector3d lo(0.02 * u(rng), 0.02 * u(rng), 0.06 * u(rng));
+      const Eigen::AlignedBox3d box(lo, lo + Eigen::Vector3d(size(rng), size(rng), size(rng)));
+      hash.sorted_cells_in_box(box, found);
+      expected.clear();
+      for (std::int64_t c = 0; c < mesh.cell_count(); ++c)
+        if (mesh.cell_bounds(c).intersects(box)) expected.push_back(c);
+      ASSERT_EQ(found, expected) << name << " " << trial;
+    }
   }
 }

@@ -12,6 +12,7 @@
 #include <vfe/stability.hpp>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 #include <cstdint>
 #include <limits>
@@ -39,6 +40,60 @@ struct Scratch {
   std::int64_t fast_path = 0, sub_elements = 0, outside_particles = 0;
   std::int64_t first_error = std::numeric_limits<std::int64_t>::max();
   std::int64_t grid_min = std::numeric_limits<std::int64_t>::max(), grid_max = 0;
+
+  // pmm on a polyMesh (methods/polymesh.cpp; it also fills candidate_cells): the cells one
+  // particle's sub-elements visit, with the volume they receive and, once a walk passes
+  // through, their face planes (outward for that cell).
+  struct PolyFace {
+    Eigen::Vector3d normal, centre;  ///< outward unit normal, face centre
+    double out_limit, deep_limit;    ///< beyond out_limit: outside; below deep_limit: deep
+    std::int64_t next;               ///< the cell across the face, -1 on the boundary
+  };
+  struct PolyCell {
+    std::int64_t cell;
+    Eigen::Vector3d lo, hi;   ///< the cell's bounds
+    bool deep;                ///< cell_accepts_deep_points
+    std::int64_t first_face;  ///< in poly_faces, -1 until cached
+    std::int64_t face_count;
+    std::int64_t hits;        ///< sub-elements found in the cell
+    double volume;            ///< their volume
+  };
+  std::vector<PolyFace> poly_faces;
+  std::vector<PolyCell> poly_cells;
+  std::vector<std::int32_t> poly_local;      // mesh cell -> index in poly_cells or -1 (mesh-sized)
+  // mesh cell c -> entries 2c, 2c + 1: the points at the lowest and highest corner of a
+  // cell that is a box, -1 for other cells, -2 not known yet (2 x mesh-sized)
+  std::vector<std::int32_t> poly_box_corners;
+  // Where the particle's box is tiled by box cells: their lattice (the cell boundaries
+  // inside the box per axis) and the poly_cells index of each lattice cell (-1: no cell).
+  std::vector<double> poly_nodes[3];
+  std::vector<Eigen::AlignedBox3d> poly_boxes;  // the candidates' boxes
+  std::vector<std::int32_t> poly_lattice;
+  // outside=nearest: the cells whose centres can be nearest to a point of the particle,
+  // by distance from its centre, with the volume they receive.
+  struct PolyNear {
+    Eigen::Vector3d centre;
+    double distance;  ///< from the particle's centre
+    std::int64_t cell;
+    std::int64_t hits;
+    double volume;
+  };
+  std::vector<PolyNear> poly_near;
+  std::vector<std::int64_t> poly_near_cells;
+  // The particle's box cut into bins, each with what it learnt: a cell holding one of its
+  // sub-elements, whether that cell holds all the bin, the candidate cells whose bounds
+  // reach it, the poly_near entries that can be nearest to its points (counts -1 until
+  // needed).
+  struct PolyBin {
+    std::int32_t hint;   ///< index in poly_cells, or -1
+    std::int32_t whole;  ///< index in poly_cells of the cell holding the bin, -1 untested, -2 none
+    std::int32_t cells_first, cells_count;
+    std::int32_t near_first, near_count;
+  };
+  std::vector<PolyBin> poly_bins;
+  std::vector<PolyBin> poly_coarse_bins;  // 2 x 2 x 2 bins each (their near lists only)
+  std::vector<std::int64_t> poly_bin_cells;
+  std::vector<std::int32_t> poly_bin_near;
 
   void reset_counters() {
     fast_path = sub_elements = outside_particles = grid_max = 0;

@@ -184,6 +184,25 @@ void SpatialHash::cells_in_box(const Eigen::AlignedBox3d& box, std::vector<std::
       }
 }
 
+void SpatialHash::sorted_cells_in_box(const Eigen::AlignedBox3d& box, std::vector<std::int64_t>& out) const {
+  out.clear();
+  if (!(box.min().array() <= hi_.array()).all() || !(box.max().array() >= lo_.array()).all()) return;
+  const std::int64_t i0 = bin(0, box.min().x()), i1 = bin(0, box.max().x());
+  const std::int64_t j0 = bin(1, box.min().y()), j1 = bin(1, box.max().y());
+  const std::int64_t k0 = bin(2, box.min().z()), k1 = bin(2, box.max().z());
+  for (std::int64_t k = k0; k <= k1; ++k)
+    for (std::int64_t j = j0; j <= j1; ++j)
+      for (std::int64_t i = i0; i <= i1; ++i) {
+        const auto b = static_cast<std::size_t>(i + nb_[0] * (j + nb_[1] * k));
+        for (auto e = offsets_[b]; e < offsets_[b + 1]; ++e) {
+          const std::uint32_t c = cells_[static_cast<std::size_t>(e)];
+          if (mesh_->cell_bounds(c).intersects(box)) out.push_back(c);
+        }
+      }
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+}
+
 std::int64_t SpatialHash::locate(const Eigen::Vector3d& p) const {
   for (const auto c : candidates(p))
     if (cell_contains(*mesh_, c, p)) return c;
@@ -263,6 +282,12 @@ std::int64_t KdTreeLocator::nearest_cell(const Eigen::Vector3d& p) const {
   double d2 = 0;
   impl_->tree.knnSearch(p.data(), 1, &idx, &d2);
   return idx;
+}
+
+std::size_t KdTreeLocator::nearest_cells(const Eigen::Vector3d& p, std::size_t k, std::uint32_t* cells,
+                                         double* d2) const {
+  k = std::clamp<std::size_t>(k, 1, kMaxK);
+  return impl_->tree.knnSearch(p.data(), k, cells, d2);
 }
 
 // ---------------------------------------------------------------------------------------

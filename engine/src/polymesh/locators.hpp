@@ -59,6 +59,9 @@ class SpatialHash {
   /// The cells whose bounding boxes overlap `box` (closed), each once: replaces the
   /// contents of out (no allocation once out has the capacity).
   void cells_in_box(const Eigen::AlignedBox3d& box, std::vector<std::int64_t>& out) const;
+  /// The same cells as cells_in_box, in increasing order (cheaper for a box that spans few
+  /// bins: the duplicates are sorted out instead of each cell's first bin computed).
+  void sorted_cells_in_box(const Eigen::AlignedBox3d& box, std::vector<std::int64_t>& out) const;
   /// True when p is in the hashed box (closed); points outside it are outside the mesh.
   bool in_box(const Eigen::Vector3d& p) const {
     return p.x() >= lo_.x() && p.x() <= hi_.x() && p.y() >= lo_.y() && p.y() <= hi_.y() && p.z() >= lo_.z() &&
@@ -94,6 +97,10 @@ class KdTreeLocator {
   /// The cell whose centre is nearest to p (any finite p, inside or outside the mesh; ties
   /// go to one of them, the same one on every call; 0 for a non-finite p).
   std::int64_t nearest_cell(const Eigen::Vector3d& p) const;
+  /// The k cells whose centres are nearest to a finite p (1 <= k <= 64), nearest first,
+  /// into cells[0, k) with their squared distances into d2[0, k); returns how many (fewer
+  /// when the mesh has fewer cells). Allocates nothing.
+  std::size_t nearest_cells(const Eigen::Vector3d& p, std::size_t k, std::uint32_t* cells, double* d2) const;
 
  private:
   struct Impl;

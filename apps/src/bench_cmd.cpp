@@ -1,0 +1,730 @@
+#include "bench_cmd.hpp"
+
+#include <vfe/engine.hpp>
+#include <vfe/kernels/particle_template.hpp>
+#include <vfe/vfe.h>
+
+#include <spdlog/logger.h>
+#include <spdlog/sinks/null_sink.h>
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+#include <tbb/task_arena.h>
+
+#include <sys/resource.h>
+#include <unistd.h>
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <functional>
+#include <limits>
+#include <numbers>
+#include <ostream>
+#include <sstream>
+#include <stdexcept>
+#include <thread>
+#include <variant>
+
+namespace vfe::apps {
+
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+using kernels::ParticleTemplate;
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kBedFraction = 0.58;
+constexpr double kStreamFraction = 0.05;
+/// Poly diameters are uniform in [1 - kPolySpread, 1 + kPolySpread] (mean 1).
+constexpr double kPolySpread = 0.3;
+/// More cells than this is a mistake (chi far too small for the scene), not a benchmark.
+constexpr double kMaxCells = 2e9;
+
+/// splitmix64: the same stream on every platform (the std distributions are not).
+class Rng {
+ public:
+  explicit Rng(std::uint64_t seed) : state_(seed) {}
+  std::uint64_t next() {
+    std::uint64_t z = (state_ += 0x9e3779b97f4a7c15ull);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    return z ^ (z >> 31);
+  }
+  double uniform() { return static_cast<double>(next() >> 11) * 0x1p-53; }
+  /// Uniform in [0, n); the modulo bias is below 2^-40 for the counts used here.
+  std::uint64_t below(std::uint64_t n) { return next() % n; }
+
+ private:
+  std::uint64_t state_;
+};
+
+double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  const std::size_t m = v.size() / 2;
+  return v.size() % 2 ? v[m] : 0.5 * (v[m - 1] + v[m]);
+}
+
+struct Timing {
+  double median_ms = 0, min_ms = 0;
+};
+
+/// `repeats` timed calls of f (the caller has warmed it up).
+template <class F>
+Timing time_calls(int repeats, F&& f) {
+  std::vector<double> ms;
+  for (int i = 0; i < repeats; ++i) {
+    const auto t0 = Clock::now();
+    f();
+    ms.push_back(ms_since(t0));
+  }
+  return {median(ms), *std::min_element(ms.begin(), ms.end())};
+}
+
+// --- resident memory -----------------------------------------------------------------
+
+/// Resident set size from /proc/self/statm; -1 where there is none.
+std::int64_t resident_bytes() {
+  std::ifstream statm("/proc/self/statm");
+  long long size = 0, resident = 0;
+  if (!(statm >> size >> resident)) return -1;
+  return static_cast<std::int64_t>(resident) * sysconf(_SC_PAGESIZE);
+}
+
+std::int64_t peak_resident_bytes() {
+  rusage usage{};
+  if (getrusage(RUSAGE_SELF, &usage) != 0) return -1;
+  return static_cast<std::int64_t>(usage.ru_maxrss) * 1024;  // Linux: kilobytes
+}
+
+/// One malloc arena for every thread: malloc_trim cannot shrink the top of a worker
+/// thread's own arena, so memory a worker freed (an earlier engine's private field) would be
+/// reused unseen by the next row.
+void share_one_malloc_arena() {
+#if defined(__GLIBC__)
+  mallopt(M_ARENA_MAX, 1);
+#endif
+}
+
+/// Gives freed heap pages back before a baseline, so memory freed by earlier rows and
+/// reused by the next one does not hide its growth.
+void return_free_memory() {
+#if defined(__GLIBC__)
+  malloc_trim(0);
+#endif
+}
+
+// --- arguments -----------------------------------------------------------------------
+
+[[noreturn]] void bad_argument(const std::string& what) { throw std::invalid_argument(what); }
+
+std::string number_text(double v) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.9g", v);
+  return buf;
+}
+
+void check_scene_kind(const std::string& scene, const std::string& dispersity) {
+  if (scene != "bed" && scene != "stream") bad_argument("--scene: unknown scene '" + scene + "'; expected bed or stream");
+  if (dispersity != "mono" && dispersity != "poly")
+    bad_argument("--dispersity: unknown value '" + dispersity + "'; expected mono or poly");
+}
+
+std::vector<std::int64_t> particle_counts(const std::vector<double>& values) {
+  if (values.empty()) bad_argument("--particles: no value; give counts such as 1e4,1e5");
+  std::vector<std::int64_t> out;
+  for (double x : values) {
+    if (!(x >= 1) || x > 1e9 || x != std::floor(x))
+      bad_argument("--particles: bad value '" + number_text(x) + "'; expected whole counts from 1 to 1e9 (e.g. 1e4,1e5)");
+    out.push_back(static_cast<std::int64_t>(x));
+  }
+  return out;
+}
+
+/// Keys the bench sets itself from its own flags.
+void check_free_options(const std::string& options) {
+  std::istringstream in(options);
+  std::string token;
+  while (in >> token) {
+    const std::string key = token.substr(0, token.find('='));
+    if (key == "method" || key == "threads" || key == "particle_grid")
+      bad_argument("--options: '" + token + "' is set by the bench; use --" +
+                   (key == "particle_grid" ? std::string("particle-grid") : key) + " instead");
+  }
+}
+
+/// The engine's message with the flag that carried the bad value in front.
+void configure_or_throw(vfe::Engine& engine, const std::string& options, const std::string& flag) {
+  try {
+    engine.configure(options);
+  } catch (const vfe::Error& e) {
+    throw vfe::Error(e.status(), flag + ": " + e.what());
+  }
+}
+
+// --- the limits ----------------------------------------------------------------------
+
+/// Where the bandwidth pass's sum goes, so the compiler must do the reads.
+volatile double g_sink = 0;
+
+/// Sum with four independent lanes, so the loop streams memory instead of waiting on adds.
+double lane_sum(const double* x, std::size_t n) {
+  double lane[4] = {0, 0, 0, 0};
+  std::size_t i = 0;
+  for (; i + 4 <= n; i += 4)
+    for (int k = 0; k < 4; ++k) lane[k] += x[i + k];
+  for (; i < n; ++i) lane[0] += x[i];
+  return (lane[0] + lane[1]) + (lane[2] + lane[3]);
+}
+
+/// The least any method must do: read every centre and radius, clear the cell field.
+double bandwidth_pass(tbb::task_arena& arena, const BenchScene& s, std::vector<double>& field) {
+  return arena.execute([&] {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, field.size(), 1 << 15),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+                        std::fill(field.begin() + r.begin(), field.begin() + r.end(), 0.0);
+                      });
+    return tbb::parallel_reduce(
+        tbb::blocked_range<std::int64_t>(0, s.n, 1 << 14), 0.0,
+        [&](const tbb::blocked_range<std::int64_t>& r, double acc) {
+          const auto b = static_cast<std::size_t>(r.begin()), e = static_cast<std::size_t>(r.end());
+          return acc + lane_sum(s.centres.data() + 3 * b, 3 * (e - b)) + lane_sum(s.radii.data() + b, e - b);
+        },
+        std::plus<>());
+  });
+}
+
+/// The engine's template size for each particle: the size is monotone in the diameter, so
+/// bisection finds the diameters where it changes (a handful for a polydisperse scene).
+struct TemplateChoice {
+  std::vector<ParticleTemplate> templates;
+  std::vector<std::uint16_t> of_particle;
+  std::int64_t sub_elements = 0;  ///< per pass over the scene
+};
+
+TemplateChoice choose_templates(const vfe::Engine& pmm_probe, const BenchScene& s, double cell_size) {
+  double d_min = std::numeric_limits<double>::infinity(), d_max = 0;
+  for (double r : s.radii) {
+    d_min = std::min(d_min, 2 * r);
+    d_max = std::max(d_max, 2 * r);
+  }
+  std::vector<double> starts{d_min};  // sizes[i] from diameter starts[i] on
+  std::vector<std::int64_t> sizes{pmm_probe.particle_grid_for(d_min, cell_size)};
+  const std::function<void(double, std::int64_t, double, std::int64_t)> split = [&](double lo, std::int64_t n_lo,
+                                                                                     double hi, std::int64_t n_hi) {
+    if (n_lo == n_hi) return;
+    if (hi - lo <= 1e-12 * hi) {
+      starts.push_back(hi);
+      sizes.push_back(n_hi);
+      return;
+    }
+    const double mid = 0.5 * (lo + hi);
+    const std::int64_t n_mid = pmm_probe.particle_grid_for(mid, cell_size);
+    split(lo, n_lo, mid, n_mid);
+    split(mid, n_mid, hi, n_hi);
+  };
+  split(d_min, sizes[0], d_max, pmm_probe.particle_grid_for(d_max, cell_size));
+  if (sizes.size() > std::numeric_limits<std::uint16_t>::max()) throw std::runtime_error("too many template sizes");
+
+  TemplateChoice c;
+  for (std::int64_t n : sizes) c.templates.push_back(kernels::make_fibonacci_template(static_cast<int>(n)));
+  c.of_particle.resize(static_cast<std::size_t>(s.n));
+  for (std::int64_t p = 0; p < s.n; ++p) {
+    const auto i = std::upper_bound(starts.begin(), starts.end(), 2 * s.radii[p]) - starts.begin() - 1;
+    c.of_particle[p] = static_cast<std::uint16_t>(std::max<std::ptrdiff_t>(i, 0));
+    c.sub_elements += static_cast<std::int64_t>(c.templates[c.of_particle[p]].size());
+  }
+  return c;
+}
+
+/// Per-thread buffers of the locate limits.
+struct LocateScratch {
+  std::vector<std::int32_t> cells;  ///< one particle's sub-element cells
+  std::vector<double> field;        ///< this thread's copy of the field (scatter only)
+  std::int64_t index_sum = 0;
+};
+
+/// PMM's locate step and nothing else, over every sub-element of every particle (no fast
+/// path, no rotation): the engine's own kernel with the whole grid as the block, so each
+/// cell index is floor((centre + r * point - origin) / h) clamped per axis and combined.
+/// scatter: then add each sub-element's volume to its cell in this thread's field (never
+/// merged: a lower bound), one add per sub-element; otherwise only sum the indices.
+template <bool kScatter>
+void locate_pass(tbb::task_arena& arena, const BenchScene& s, const vfe::CartesianGridSpec& g,
+                 const TemplateChoice& choice, tbb::enumerable_thread_specific<LocateScratch>& scratch) {
+  const std::size_t ncells = static_cast<std::size_t>(g.cells[0] * g.cells[1] * g.cells[2]);
+  const double inv_h = 1.0 / g.spacing[0];  // cubic cells
+  arena.execute([&] {
+    tbb::parallel_for(tbb::blocked_range<std::int64_t>(0, s.n, 256), [&](const tbb::blocked_range<std::int64_t>& r) {
+      LocateScratch& local = scratch.local();
+      if (kScatter && local.field.size() != ncells) local.field.assign(ncells, 0.0);
+      std::int64_t index_sum = 0;
+      for (std::int64_t p = r.begin(); p < r.end(); ++p) {
+        const ParticleTemplate& t = choice.templates[choice.of_particle[p]];
+        const double* c = s.centres.data() + 3 * p;
+        const double radius = s.radii[p];
+        const Eigen::Vector3d base((c[0] - g.origin[0]) * inv_h, (c[1] - g.origin[1]) * inv_h,
+                                   (c[2] - g.origin[2]) * inv_h);
+        const Eigen::Matrix3d to_cells = Eigen::Matrix3d::Identity() * (radius * inv_h);
+        const std::size_t n = t.size();
+        local.cells.resize(n);
+        kernels::locate_in_block(t, base, to_cells, g.cells.data(), local.cells.data());
+        const std::int32_t* cell = local.cells.data();
+        if constexpr (kScatter) {
+          const double volume = 4.0 / 3.0 * std::numbers::pi * radius * radius * radius;
+          double* field = local.field.data();
+          for (std::size_t q = 0; q < n; ++q) field[cell[q]] += volume * t.fractions[q];
+        } else {
+          for (std::size_t q = 0; q < n; ++q) index_sum += cell[q];
+        }
+      }
+      local.index_sum += index_sum;
+    });
+  });
+}
+
+/// The limits of one (scene, grid, threads), each the median of `repeats` after a warm-up.
+BenchLimit measure_limits(tbb::task_arena& arena, const BenchScene& scene, const vfe::CartesianGridSpec& grid,
+                          const TemplateChoice& choice, std::vector<double>& field, int repeats) {
+  BenchLimit limit;
+  limit.cells = static_cast<std::int64_t>(field.size());
+  limit.bandwidth_bytes = static_cast<std::int64_t>(sizeof(double)) * (4 * scene.n + limit.cells);
+  double sum = bandwidth_pass(arena, scene, field);
+  limit.bandwidth_ms = time_calls(repeats, [&] { sum += bandwidth_pass(arena, scene, field); }).median_ms;
+  g_sink = sum;
+  tbb::enumerable_thread_specific<LocateScratch> scratch;
+  locate_pass<true>(arena, scene, grid, choice, scratch);
+  limit.scatter_ms = time_calls(repeats, [&] { locate_pass<true>(arena, scene, grid, choice, scratch); }).median_ms;
+  locate_pass<false>(arena, scene, grid, choice, scratch);
+  limit.locate_ms = time_calls(repeats, [&] { locate_pass<false>(arena, scene, grid, choice, scratch); }).median_ms;
+  for (const LocateScratch& local : scratch) g_sink = double(local.index_sum);
+  limit.locate_sub_elements = choice.sub_elements;
+  limit.locate_templates = static_cast<std::int64_t>(choice.templates.size());
+  return limit;
+}
+
+// --- reports ---------------------------------------------------------------------------
+
+using Value = std::variant<std::string, double, std::int64_t>;
+struct Field {
+  const char* name;
+  Value value;
+};
+using Record = std::vector<Field>;
+
+Record record_of(const BenchRow& r) {
+  return {{"scene", r.scene},
+          {"dispersity", r.dispersity},
+          {"particles", r.particles},
+          {"chi", r.chi},
+          {"cell_size", r.cell_size},
+          {"nx", r.grid[0]},
+          {"ny", r.grid[1]},
+          {"nz", r.grid[2]},
+          {"cells", r.cells},
+          {"solid_fraction", r.solid_fraction},
+          {"method", r.method},
+          {"options", r.options},
+          {"threads", std::int64_t{r.threads}},
+          {"repeats", std::int64_t{r.repeats}},
+          {"time_median_ms", r.time_median_ms},
+          {"time_min_ms", r.time_min_ms},
+          {"particles_per_s", r.particles_per_s},
+          {"sub_elements", r.sub_elements},
+          {"sub_elements_per_s", r.sub_elements_per_s},
+          {"sub_elements_per_particle", r.sub_elements_per_particle},
+          {"fast_path_particles", r.fast_path_particles},
+          {"particle_grid_min", r.particle_grid_min},
+          {"particle_grid_max", r.particle_grid_max},
+          {"volume_error", r.volume_error},
+          {"engine_bytes", r.engine_bytes},
+          {"compute_bytes", r.compute_bytes},
+          {"bytes_per_cell", r.bytes_per_cell},
+          {"bytes_per_particle", r.bytes_per_particle},
+          {"peak_rss_bytes", r.peak_rss_bytes},
+          {"speedup", r.speedup},
+          {"bandwidth_ms", r.bandwidth_ms},
+          {"scatter_ms", r.scatter_ms},
+          {"locate_ms", r.locate_ms},
+          {"x_bandwidth", r.x_bandwidth},
+          {"x_scatter", r.x_scatter},
+          {"x_locate", r.x_locate}};
+}
+
+Record record_of(const BenchLimit& l) {
+  const double locate_rate = l.locate_ms > 0 ? double(l.locate_sub_elements) / (l.locate_ms * 1e-3) : kNaN;
+  const double bytes_rate = l.bandwidth_ms > 0 ? double(l.bandwidth_bytes) / (l.bandwidth_ms * 1e-3) : kNaN;
+  return {{"particles", l.particles},
+          {"chi", l.chi},
+          {"threads", std::int64_t{l.threads}},
+          {"cells", l.cells},
+          {"bandwidth_ms", l.bandwidth_ms},
+          {"bandwidth_bytes", l.bandwidth_bytes},
+          {"bandwidth_bytes_per_s", bytes_rate},
+          {"scatter_ms", l.scatter_ms},
+          {"locate_ms", l.locate_ms},
+          {"locate_sub_elements", l.locate_sub_elements},
+          {"locate_sub_elements_per_s", locate_rate},
+          {"locate_templates", l.locate_templates}};
+}
+
+std::string csv_value(const Value& v) {
+  if (const auto* s = std::get_if<std::string>(&v)) {
+    if (s->find_first_of(",\"\n\r") == std::string::npos) return *s;
+    std::string o = "\"";
+    for (char c : *s) o += c == '"' ? std::string("\"\"") : std::string(1, c);
+    return o + "\"";
+  }
+  if (const auto* i = std::get_if<std::int64_t>(&v)) return std::to_string(*i);
+  const double x = std::get<double>(v);
+  return std::isnan(x) ? "nan" : number_text(x);
+}
+
+std::string json_value(const Value& v) {
+  if (const auto* s = std::get_if<std::string>(&v)) {
+    std::string o = "\"";
+    for (char c : *s) {
+      if (c == '"' || c == '\\') o += '\\';
+      if (static_cast<unsigned char>(c) < 0x20) continue;  // option strings have no control characters
+      o += c;
+    }
+    return o + "\"";
+  }
+  if (const auto* i = std::get_if<std::int64_t>(&v)) return std::to_string(*i);
+  const double x = std::get<double>(v);
+  return std::isfinite(x) ? number_text(x) : "null";
+}
+
+std::string csv_text(const std::vector<Record>& records) {
+  std::string o;
+  for (std::size_t i = 0; i < records.size(); ++i) {
+    if (i == 0) {
+      for (std::size_t c = 0; c < records[0].size(); ++c) o.append(c ? "," : "").append(records[0][c].name);
+      o += '\n';
+    }
+    for (std::size_t c = 0; c < records[i].size(); ++c) o.append(c ? "," : "").append(csv_value(records[i][c].value));
+    o += '\n';
+  }
+  return o;
+}
+
+std::string json_array(const std::vector<Record>& records) {
+  std::string o = "[";
+  for (std::size_t i = 0; i < records.size(); ++i) {
+    o += i ? ",\n    {" : "\n    {";
+    for (std::size_t c = 0; c < records[i].size(); ++c)
+      o.append(c ? ", \"" : "\"").append(records[i][c].name).append("\": ").append(json_value(records[i][c].value));
+    o += "}";
+  }
+  return o + (records.empty() ? "]" : "\n  ]");
+}
+
+void write_file(const fs::path& file, const std::string& text) {
+  std::ofstream out(file);
+  out << text;
+  out.flush();
+  if (!out) throw std::runtime_error(file.string() + ": cannot write the file; check that the output folder is writable");
+}
+
+// --- the table ---------------------------------------------------------------------------
+
+std::string cell_text(const char* format, double v) {
+  if (!std::isfinite(v)) return "-";
+  char buf[40];
+  std::snprintf(buf, sizeof buf, format, v);
+  return buf;
+}
+
+constexpr const char* kRowFormat = "%8s %4s %-9s %3s %9s %10s %8s %8s %7s %7s %6s %7s %7s %9s %8s\n";
+
+void print_header(std::ostream& out) {
+  char line[256];
+  std::snprintf(line, sizeof line, kRowFormat, "N", "chi", "method", "thr", "cells", "ms", "part/s", "subel/s",
+                "subel/p", "B/part", "B/cell", "speedup", "x bw", "x scatter", "x locate");
+  out << line << std::string(std::char_traits<char>::length(line) - 1, '-') << '\n';
+}
+
+void print_line(std::ostream& out, std::int64_t n, double chi, const std::string& method, int threads,
+                std::int64_t cells, double ms, double sub_elements, double bytes_per_particle, double bytes_per_cell,
+                double speedup, double x_bandwidth, double x_scatter, double x_locate) {
+  const double per_s = 1e3 / ms;
+  char line[256];
+  std::snprintf(line, sizeof line, kRowFormat, std::to_string(n).c_str(), cell_text("%.3g", chi).c_str(),
+                method.c_str(), std::to_string(threads).c_str(), std::to_string(cells).c_str(),
+                cell_text("%.3f", ms).c_str(), cell_text("%.3g", double(n) * per_s).c_str(),
+                cell_text("%.3g", sub_elements * per_s).c_str(), cell_text("%.4g", sub_elements / double(n)).c_str(),
+                cell_text("%.1f", bytes_per_particle).c_str(), cell_text("%.1f", bytes_per_cell).c_str(),
+                cell_text("%.2f", speedup).c_str(), cell_text("%.1f", x_bandwidth).c_str(),
+                cell_text("%.2f", x_scatter).c_str(), cell_text("%.2f", x_locate).c_str());
+  out << line << std::flush;
+}
+
+}  // namespace
+
+BenchScene make_bench_scene(const std::string& scene, const std::string& dispersity, std::int64_t n,
+                            std::uint64_t seed) {
+  check_scene_kind(scene, dispersity);
+  if (n < 1) bad_argument("--particles: " + std::to_string(n) + " particles; expected a count >= 1");
+  Rng rng(seed);
+  BenchScene s;
+  s.name = scene;
+  s.dispersity = dispersity;
+  s.n = n;
+  s.radii.resize(static_cast<std::size_t>(n));
+  s.centres.resize(static_cast<std::size_t>(3 * n));
+  double sum_d = 0;
+  for (auto& r : s.radii) {
+    const double d = dispersity == "poly" ? 1.0 - kPolySpread + 2 * kPolySpread * rng.uniform() : 1.0;
+    r = 0.5 * d;
+    sum_d += d;
+    s.particle_volume += std::numbers::pi / 6 * d * d * d;
+  }
+  s.mean_diameter = sum_d / double(n);
+  const double mean_volume = s.particle_volume / double(n);
+
+  if (scene == "bed") {
+    // Face-centred cubic: the sites (u, v, l) * a/2 with u + v + l even, 4 per cube of side
+    // a, sized for the target fraction; L x L cubes wide (a roughly cubic bed), filled
+    // layer by layer from the bottom, the top layer's sites picked at random.
+    const double a = std::cbrt(4 * mean_volume / kBedFraction);
+    const auto L = std::max<std::int64_t>(1, static_cast<std::int64_t>(std::ceil(std::cbrt(double(n) / 4))));
+    const std::int64_t per_layer = 2 * L * L;
+    const double jitter = 0.25 * std::max(0.0, a / std::numbers::sqrt2 - s.mean_diameter);
+    std::vector<std::int64_t> sites(static_cast<std::size_t>(per_layer));
+    std::int64_t p = 0;
+    for (std::int64_t l = 0; p < n; ++l) {
+      std::size_t count = 0;
+      for (std::int64_t v = 0; v < 2 * L; ++v)
+        for (std::int64_t u = 0; u < 2 * L; ++u)
+          if ((u + v + l) % 2 == 0) sites[count++] = u + 2 * L * v;
+      const std::int64_t take = std::min(per_layer, n - p);
+      for (std::int64_t i = 0; i < take && take < per_layer; ++i)
+        std::swap(sites[i], sites[i + static_cast<std::int64_t>(rng.below(std::uint64_t(per_layer - i)))]);
+      for (std::int64_t i = 0; i < take; ++i, ++p) {
+        const double site[3] = {double(sites[i] % (2 * L)), double(sites[i] / (2 * L)), double(l)};
+        for (int d = 0; d < 3; ++d)
+          s.centres[3 * p + d] = (site[d] + 0.5) * 0.5 * a + jitter * (2 * rng.uniform() - 1);
+      }
+    }
+    s.hi = {double(L) * a, double(L) * a, double(n) / double(per_layer) * 0.5 * a};
+  } else {
+    const double side = std::cbrt(s.particle_volume / kStreamFraction);
+    for (std::int64_t p = 0; p < n; ++p) {
+      const double r = s.radii[p];
+      for (int d = 0; d < 3; ++d) s.centres[3 * p + d] = r + (side - 2 * r) * rng.uniform();
+    }
+    s.hi = {side, side, side};
+  }
+  s.solid_fraction = s.particle_volume / ((s.hi[0] - s.lo[0]) * (s.hi[1] - s.lo[1]) * (s.hi[2] - s.lo[2]));
+
+  // Shuffled: a generator's order (layer by layer) would give the engine an unrealistic
+  // memory locality.
+  for (std::int64_t i = n - 1; i > 0; --i) {
+    const auto j = static_cast<std::int64_t>(rng.below(std::uint64_t(i + 1)));
+    std::swap(s.radii[i], s.radii[j]);
+    for (int d = 0; d < 3; ++d) std::swap(s.centres[3 * i + d], s.centres[3 * j + d]);
+  }
+  return s;
+}
+
+BenchOutcome run_bench(const BenchCommand& c) {
+  const auto log = c.logger ? c.logger
+                            : std::make_shared<spdlog::logger>("vfe-app", std::make_shared<spdlog::sinks::null_sink_mt>());
+  share_one_malloc_arena();
+  // Every argument is checked before the first (possibly long) scene is made.
+  check_scene_kind(c.scene, c.dispersity);
+  const std::vector<std::int64_t> counts = particle_counts(c.particles);
+  if (c.chi.empty()) bad_argument("--chi: no value; give cell size / mean diameter such as 1,2");
+  for (double x : c.chi)
+    if (!(x > 0) || !std::isfinite(x)) bad_argument("--chi: bad value '" + number_text(x) + "'; expected numbers > 0");
+  if (c.threads.empty()) bad_argument("--threads: no value; give thread counts such as 1,2");
+  std::vector<int> threads;
+  for (int t : c.threads) {
+    if (t < 0 || t > 4096) bad_argument("--threads: bad value '" + std::to_string(t) + "'; expected 0 (all) to 4096");
+    const unsigned hc = std::thread::hardware_concurrency();
+    threads.push_back(t > 0 ? t : (hc ? static_cast<int>(hc) : 1));
+  }
+  if (c.methods.empty()) bad_argument("--method: no value; give methods such as direct,pmm,exact");
+  if (c.repeats < 1) bad_argument("--repeats: bad value '" + std::to_string(c.repeats) + "'; expected a count >= 1");
+  check_free_options(c.options);
+
+  const std::string common = c.options + " particle_grid=" + c.particle_grid;
+  vfe::Engine probe(vfe::CartesianGridSpec{});
+  configure_or_throw(probe, c.options, "--options");
+  configure_or_throw(probe, "particle_grid=" + c.particle_grid, "--particle-grid");
+  for (const std::string& m : c.methods) configure_or_throw(probe, "method=" + m, "--method");
+  probe.configure("method=pmm");  // the limits use pmm's template sizes
+
+  std::error_code ec;
+  fs::create_directories(c.output, ec);
+  if (ec || !fs::is_directory(c.output))
+    throw std::runtime_error(c.output.string() + ": cannot create the output folder (" + ec.message() +
+                             "); choose another with --output");
+
+  BenchOutcome out;
+  out.output = c.output;
+  if (c.table) print_header(*c.table);
+  const std::size_t total_rows = counts.size() * c.chi.size() * threads.size() * c.methods.size();
+  for (const std::int64_t n : counts) {
+    const auto t_scene = Clock::now();
+    const BenchScene scene = make_bench_scene(c.scene, c.dispersity, n, c.seed);
+    log->info("{} ({}): {} particles, solid fraction {:.3f}, mean diameter {:.4g}, made in {:.2f} s", scene.name,
+              scene.dispersity, n, scene.solid_fraction, scene.mean_diameter, ms_since(t_scene) * 1e-3);
+    vfe::ParticleView view;
+    view.n = n;
+    view.centres = scene.centres.data();
+    view.radii = scene.radii.data();
+
+    for (const double chi : c.chi) {
+      // Cubic cells of chi mean diameters over the scene's box and a margin of one diameter.
+      const double h = chi * scene.mean_diameter, margin = scene.mean_diameter;
+      vfe::CartesianGridSpec grid;
+      double cell_estimate = 1;
+      for (int d = 0; d < 3; ++d) {
+        const double cells = std::ceil((scene.hi[d] - scene.lo[d] + 2 * margin) / h);
+        cell_estimate *= cells;
+        grid.origin[d] = scene.lo[d] - margin;
+        grid.spacing[d] = h;
+        grid.cells[d] = static_cast<std::int64_t>(std::min(cells, kMaxCells));
+      }
+      if (cell_estimate > kMaxCells)
+        bad_argument("--chi: chi = " + number_text(chi) + " with " + std::to_string(n) + " particles needs " +
+                     number_text(cell_estimate) + " cells; use a larger chi or fewer particles");
+      const std::int64_t ncells = grid.cells[0] * grid.cells[1] * grid.cells[2];
+      log->info("N = {}, chi = {}: {} x {} x {} cells", n, chi, grid.cells[0], grid.cells[1], grid.cells[2]);
+      const TemplateChoice choice = c.limits ? choose_templates(probe, scene, h) : TemplateChoice{};
+      std::vector<double> field(static_cast<std::size_t>(ncells), 0.0);  // the host's output, touched
+
+      for (const int t : threads) {
+        tbb::task_arena arena(t);
+        BenchLimit limit;
+        limit.bandwidth_ms = limit.scatter_ms = limit.locate_ms = kNaN;
+        if (c.limits) {
+          limit = measure_limits(arena, scene, grid, choice, field, c.repeats);
+          limit.particles = n;
+          limit.chi = chi;
+          limit.threads = t;
+          out.limits.push_back(limit);
+          log->info("limits, {} thread(s): bandwidth {:.3f} ms, scatter {:.3f} ms, locate {:.3f} ms ({} template sizes)",
+                    t, limit.bandwidth_ms, limit.scatter_ms, limit.locate_ms, limit.locate_templates);
+          if (c.table) {
+            const double subel = double(limit.locate_sub_elements);
+            print_line(*c.table, n, chi, "(bw)", t, ncells, limit.bandwidth_ms, kNaN, kNaN, kNaN, kNaN, kNaN, kNaN, kNaN);
+            print_line(*c.table, n, chi, "(scatter)", t, ncells, limit.scatter_ms, subel, kNaN, kNaN, kNaN, kNaN, kNaN,
+                       kNaN);
+            print_line(*c.table, n, chi, "(locate)", t, ncells, limit.locate_ms, subel, kNaN, kNaN, kNaN, kNaN, kNaN,
+                       kNaN);
+          }
+        }
+
+        for (const std::string& method : c.methods) {
+          BenchRow row;
+          return_free_memory();
+          const std::int64_t before_engine = resident_bytes();
+          vfe::Engine engine(grid);
+          const std::int64_t after_engine = resident_bytes();
+          engine.configure(common + " method=" + method + " threads=" + std::to_string(t));
+          return_free_memory();
+          const std::int64_t before_compute = resident_bytes();
+          const auto t_warm = Clock::now();
+          engine.compute(view, field);
+          const double warm_ms = ms_since(t_warm);
+          const std::int64_t after_compute = resident_bytes();
+          if (warm_ms > 5000)
+            log->info("{}, {} thread(s): warm-up took {:.1f} s; {} timed computes follow", method, t, warm_ms * 1e-3,
+                      c.repeats);
+          const vfe::Report rep = engine.last_report();
+          const Timing timing = time_calls(c.repeats, [&] { engine.compute(view, field); });
+
+          const bool have_memory = before_engine >= 0 && before_compute >= 0;
+          row.scene = scene.name;
+          row.dispersity = scene.dispersity;
+          row.method = method;
+          row.options = engine.options();
+          row.particles = n;
+          row.chi = chi;
+          row.cell_size = h;
+          row.solid_fraction = scene.solid_fraction;
+          row.grid = grid.cells;
+          row.cells = ncells;
+          row.threads = t;
+          row.repeats = c.repeats;
+          row.time_median_ms = timing.median_ms;
+          row.time_min_ms = timing.min_ms;
+          row.particles_per_s = double(n) / (timing.median_ms * 1e-3);
+          row.sub_elements = rep.sub_elements;
+          row.sub_elements_per_s = double(rep.sub_elements) / (timing.median_ms * 1e-3);
+          row.sub_elements_per_particle = double(rep.sub_elements) / double(n);
+          row.fast_path_particles = rep.fast_path_particles;
+          row.particle_grid_min = rep.particle_grid_min;
+          row.particle_grid_max = rep.particle_grid_max;
+          row.volume_error = std::abs(rep.deposited_volume + rep.dropped_volume - rep.particle_volume) /
+                             rep.particle_volume;
+          row.engine_bytes = have_memory ? after_engine - before_engine : -1;
+          row.compute_bytes = have_memory ? after_compute - before_compute : -1;
+          row.bytes_per_cell = have_memory ? double(row.engine_bytes) / double(ncells) : kNaN;
+          row.bytes_per_particle = have_memory ? double(row.compute_bytes) / double(n) : kNaN;
+          row.peak_rss_bytes = peak_resident_bytes();
+          row.speedup = kNaN;
+          for (const BenchRow& one : out.rows)
+            if (t != 1 && one.threads == 1 && one.particles == n && one.chi == chi && one.method == method)
+              row.speedup = one.time_median_ms / row.time_median_ms;
+          row.bandwidth_ms = limit.bandwidth_ms;
+          row.scatter_ms = limit.scatter_ms;
+          row.locate_ms = limit.locate_ms;
+          row.x_bandwidth = row.time_median_ms / limit.bandwidth_ms;
+          row.x_scatter = row.time_median_ms / limit.scatter_ms;
+          row.x_locate = row.time_median_ms / limit.locate_ms;
+          out.rows.push_back(row);
+          log->info("[{}/{}] N = {}, chi = {}, {}, {} thread(s): {:.3f} ms per compute", out.rows.size(), total_rows, n,
+                    chi, method, t, row.time_median_ms);
+          if (c.table)
+            print_line(*c.table, n, chi, method, t, ncells, row.time_median_ms, double(row.sub_elements),
+                       row.bytes_per_particle, row.bytes_per_cell, row.speedup, row.x_bandwidth, row.x_scatter,
+                       row.x_locate);
+        }
+      }
+    }
+  }
+  out.peak_rss_bytes = peak_resident_bytes();
+  if (c.table)
+    *c.table << "(bw: read centres and radii, clear the field; scatter: pmm's cell index of every sub-element and "
+                "an add there; locate: the index only; x ...: time / that limit; B/part: RSS growth over the first "
+                "compute / N; B/cell: RSS growth on creating the engine / cells)\npeak RSS: "
+             << cell_text("%.1f", double(out.peak_rss_bytes) / (1 << 20)) << " MiB\n"
+             << std::flush;
+
+  std::vector<Record> rows, limits;
+  for (const BenchRow& r : out.rows) rows.push_back(record_of(r));
+  for (const BenchLimit& l : out.limits) limits.push_back(record_of(l));
+  write_file(c.output / "bench.csv", csv_text(rows));
+  write_file(c.output / "limits.csv", csv_text(limits));
+  std::ostringstream js;
+  const Record info = {{"vfe_version", std::string(vfe_version())},
+                       {"scene", c.scene},
+                       {"dispersity", c.dispersity},
+                       {"seed", static_cast<std::int64_t>(c.seed)},
+                       {"repeats", std::int64_t{c.repeats}},
+                       {"particle_grid", c.particle_grid},
+                       {"options", c.options},
+                       {"hardware_threads", std::int64_t{std::thread::hardware_concurrency()}},
+                       {"peak_rss_bytes", out.peak_rss_bytes}};
+  js << "{\n";
+  for (const Field& f : info) js << "  \"" << f.name << "\": " << json_value(f.value) << ",\n";
+  js << "  \"rows\": " << json_array(rows) << ",\n  \"limits\": " << json_array(limits) << "\n}\n";
+  write_file(c.output / "bench.json", js.str());
+  log->info("wrote {}, {} and {}", (c.output / "bench.csv").string(), (c.output / "limits.csv").string(),
+            (c.output / "bench.json").string());
+  return out;
+}
+
+}  // namespace vfe::apps

@@ -1,0 +1,107 @@
+// `vfe bench`: throughput of the engine's methods on generated particle scenes (a packed
+// bed or a dilute stream, 1e4 to a few 1e6 particles), with memory per particle and per
+// cell, the 1 -> 2 thread speed-up and two limits measured in the same run: a
+// memory-bandwidth bound and a minimal PMM locate loop.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <iosfwd>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace spdlog {
+class logger;
+}
+
+namespace vfe::apps {
+
+struct BenchCommand {
+  std::string scene = "bed";       ///< bed (packed, solid fraction 0.58) or stream (dilute, 0.05)
+  std::string dispersity = "mono"; ///< mono (diameter 1) or poly (uniform in [0.7, 1.3])
+  std::vector<double> particles{1e4, 1e5};
+  std::vector<double> chi{2.0};    ///< cell size / mean diameter
+  std::vector<int> threads{1, 2};  ///< 0 = all
+  std::vector<std::string> methods{"direct", "pmm", "exact"};
+  std::string particle_grid = "auto";
+  std::string options;             ///< more engine options, "key=value ..."
+  int repeats = 3;                 ///< timed computes after one warm-up (the median is reported)
+  std::uint64_t seed = 1;
+  bool limits = true;  ///< also measure the bandwidth and locate limits
+  std::filesystem::path output = "bench";
+  std::shared_ptr<spdlog::logger> logger;  ///< progress; null = quiet
+  std::ostream* table = nullptr;           ///< where the table goes; null = none
+};
+
+/// A generated scene: particle order shuffled, diameters with mean about 1.
+struct BenchScene {
+  std::string name, dispersity;
+  std::int64_t n = 0;
+  std::vector<double> centres;  ///< 3n
+  std::vector<double> radii;    ///< n
+  std::array<double, 3> lo{0, 0, 0}, hi{0, 0, 0};  ///< the scene's box (the bed or the stream)
+  double mean_diameter = 0;
+  double particle_volume = 0;
+  double solid_fraction = 0;  ///< particle_volume / box volume
+};
+
+/// bed: a jittered face-centred cubic lattice filled from the bottom (solid fraction 0.58);
+/// stream: centres uniform in a cube (0.05). Deterministic for a seed on every platform.
+/// Throws std::invalid_argument naming the bad value.
+BenchScene make_bench_scene(const std::string& scene, const std::string& dispersity, std::int64_t n,
+                            std::uint64_t seed);
+
+/// One (particles, chi, threads, method) timing.
+struct BenchRow {
+  std::string scene, dispersity, method;
+  std::string options;  ///< the engine's full option string
+  std::int64_t particles = 0;
+  double chi = 0, cell_size = 0, solid_fraction = 0;
+  std::array<std::int64_t, 3> grid{0, 0, 0};
+  std::int64_t cells = 0;
+  int threads = 0, repeats = 0;
+  double time_median_ms = 0, time_min_ms = 0;
+  double particles_per_s = 0, sub_elements_per_s = 0, sub_elements_per_particle = 0;
+  std::int64_t sub_elements = 0, fast_path_particles = 0, particle_grid_min = 0, particle_grid_max = 0;
+  double volume_error = 0;  ///< |deposited + dropped - particle volume| / particle volume
+  /// Resident-memory growth (bytes) when creating the engine and over its first compute.
+  std::int64_t engine_bytes = 0, compute_bytes = 0;
+  double bytes_per_cell = 0;      ///< engine_bytes / cells
+  double bytes_per_particle = 0;  ///< compute_bytes / particles
+  std::int64_t peak_rss_bytes = 0;  ///< of the process so far
+  double speedup = 0;  ///< 1-thread time / this time; NaN without a 1-thread row
+  /// The limits at the same (scene, N, chi, threads) and time_median_ms as a multiple of each.
+  double bandwidth_ms = 0, scatter_ms = 0, locate_ms = 0;
+  double x_bandwidth = 0, x_scatter = 0, x_locate = 0;
+};
+
+/// The limits of one (particles, chi, threads).
+struct BenchLimit {
+  std::int64_t particles = 0;
+  double chi = 0;
+  int threads = 0;
+  std::int64_t cells = 0;
+  double bandwidth_ms = 0;  ///< read centres and radii, clear the cell field
+  std::int64_t bandwidth_bytes = 0;
+  /// Every sub-element of pmm's template for each particle: its cell index, then its volume
+  /// added to the field (scatter) or only the indices summed (locate).
+  double scatter_ms = 0, locate_ms = 0;
+  std::int64_t locate_sub_elements = 0;
+  std::int64_t locate_templates = 0;  ///< distinct template sizes the scene needs
+};
+
+struct BenchOutcome {
+  std::vector<BenchRow> rows;
+  std::vector<BenchLimit> limits;
+  std::int64_t peak_rss_bytes = 0;
+  std::filesystem::path output;  ///< folder holding bench.csv, limits.csv and bench.json
+};
+
+/// Runs the bench; writes bench.csv, limits.csv, bench.json and prints the table. Throws
+/// std::invalid_argument naming the bad argument (--chi, --scene, ...), vfe::Error from
+/// the engine (an unknown --options key) or std::runtime_error (output not writable).
+BenchOutcome run_bench(const BenchCommand& command);
+
+}  // namespace vfe::apps

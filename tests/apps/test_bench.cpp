@@ -1,0 +1,122 @@
+// `vfe bench`: the generated scenes and a tiny run through run_bench (rows, rates, volume
+// conservation, reports), and errors that name the bad argument.
+#include "bench_cmd.hpp"
+#include "test_util.hpp"
+
+#include <vfe/engine.hpp>
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+using namespace vfe::apps;
+
+namespace {
+
+BenchCommand tiny_command(const std::filesystem::path& output) {
+  BenchCommand c;
+  c.scene = "bed";
+  c.dispersity = "poly";
+  c.particles = {2000};
+  c.chi = {1, 2};
+  c.threads = {1};
+  c.repeats = 1;
+  c.output = output;
+  return c;
+}
+
+/// The message run_bench throws for a command, or "" when it does not throw.
+std::string error_of(const BenchCommand& c) {
+  try {
+    (void)run_bench(c);
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+  return "";
+}
+
+}  // namespace
+
+TEST(BenchScene, FractionsAndShuffledOrder) {
+  for (const char* dispersity : {"mono", "poly"}) {
+    const BenchScene bed = make_bench_scene("bed", dispersity, 5000, 7);
+    EXPECT_GE(bed.solid_fraction, 0.55) << dispersity;
+    EXPECT_LE(bed.solid_fraction, 0.60) << dispersity;
+    const BenchScene stream = make_bench_scene("stream", dispersity, 5000, 7);
+    EXPECT_NEAR(stream.solid_fraction, 0.05, 1e-12) << dispersity;
+    EXPECT_NEAR(bed.mean_diameter, 1.0, 0.02) << dispersity;
+    ASSERT_EQ(bed.centres.size(), 3u * 5000);
+    // Shuffled: the first particles are not the bottom layer of the lattice.
+    double z_first = 0;
+    for (int p = 0; p < 100; ++p) z_first += bed.centres[3 * p + 2] / 100;
+    EXPECT_GT(z_first, 0.25 * bed.hi[2]) << dispersity;
+  }
+  const BenchScene a = make_bench_scene("bed", "poly", 1000, 3), b = make_bench_scene("bed", "poly", 1000, 3);
+  EXPECT_EQ(a.centres, b.centres);
+  EXPECT_EQ(a.radii, b.radii);
+  EXPECT_NE(a.radii, make_bench_scene("bed", "poly", 1000, 4).radii);
+}
+
+TEST(Bench, TinyBedRowsRatesAndVolume) {
+  test::TempDir dir;
+  const BenchOutcome out = run_bench(tiny_command(dir / "bench"));
+  ASSERT_EQ(out.rows.size(), 6u);  // 2 chi x 3 methods x 1 thread
+  ASSERT_EQ(out.limits.size(), 2u);
+  for (const BenchRow& r : out.rows) {
+    SCOPED_TRACE(r.method + " chi " + std::to_string(r.chi));
+    EXPECT_EQ(r.particles, 2000);
+    EXPECT_EQ(r.threads, 1);
+    EXPECT_GT(r.time_median_ms, 0);
+    EXPECT_GT(r.cells, 0);
+    EXPECT_GE(r.solid_fraction, 0.55);
+    EXPECT_LE(r.solid_fraction, 0.60);
+    EXPECT_GT(r.sub_elements, 0);
+    EXPECT_NEAR(r.sub_elements_per_s, double(r.sub_elements) / (r.time_median_ms * 1e-3), 1e-9 * r.sub_elements_per_s);
+    EXPECT_NEAR(r.particles_per_s, 2000 / (r.time_median_ms * 1e-3), 1e-9 * r.particles_per_s);
+    EXPECT_LT(r.volume_error, 1e-12);
+    EXPECT_GT(r.bandwidth_ms, 0);
+    EXPECT_GT(r.scatter_ms, 0);
+    EXPECT_GT(r.locate_ms, 0);
+    EXPECT_NEAR(r.x_locate, r.time_median_ms / r.locate_ms, 1e-12 * r.x_locate);
+    EXPECT_TRUE(std::isnan(r.speedup));  // no 2-thread row
+    EXPECT_GT(r.peak_rss_bytes, 0);
+  }
+  // pmm auto resolves far more sub-elements per particle at chi = 1 than at chi = 2.
+  EXPECT_EQ(out.rows[1].method, "pmm");
+  EXPECT_EQ(out.rows[4].method, "pmm");
+  EXPECT_GT(out.rows[1].sub_elements_per_particle, 2 * out.rows[4].sub_elements_per_particle);
+  for (const BenchLimit& l : out.limits) EXPECT_GE(l.locate_sub_elements, 2000);
+  const std::string csv = test::read_text(out.output / "bench.csv");
+  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 7);
+  EXPECT_NE(test::read_text(out.output / "bench.json").find("\"x_locate\""), std::string::npos);
+  EXPECT_TRUE(std::filesystem::exists(out.output / "limits.csv"));
+}
+
+TEST(Bench, BadArgumentsAreNamed) {
+  test::TempDir dir;
+  BenchCommand c = tiny_command(dir / "bench");
+  c.chi = {1, 0};
+  EXPECT_NE(error_of(c).find("--chi"), std::string::npos);
+  c = tiny_command(dir / "bench");
+  c.scene = "heap";
+  const std::string scene_error = error_of(c);
+  EXPECT_NE(scene_error.find("--scene"), std::string::npos);
+  EXPECT_NE(scene_error.find("heap"), std::string::npos);
+  c = tiny_command(dir / "bench");
+  c.particles = {0};
+  EXPECT_NE(error_of(c).find("--particles"), std::string::npos);
+  c = tiny_command(dir / "bench");
+  c.methods = {"pmm", "magic"};
+  EXPECT_NE(error_of(c).find("magic"), std::string::npos);
+  c = tiny_command(dir / "bench");
+  c.options = "no_such_key=1";
+  const std::string option_error = error_of(c);
+  EXPECT_NE(option_error.find("--options"), std::string::npos);
+  EXPECT_NE(option_error.find("no_such_key"), std::string::npos);
+  c = tiny_command(dir / "bench");
+  c.options = "threads=4";
+  EXPECT_NE(error_of(c).find("--threads"), std::string::npos);
+}
