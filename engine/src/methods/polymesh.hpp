@@ -25,7 +25,9 @@ void outside_poly(const PolyContext& ctx, Scratch& s, const Particle& p, double 
 /// One particle on a polyMesh: pmm deposits template t (unit-sphere or shape template,
 /// scaled by p.radius and rotated); with t null (direct) everything goes to the cell
 /// holding the body's centroid (zero for spheres). Outside points follow the policy,
-/// `nearest` meaning the cell with the nearest centre.
+/// `nearest` meaning the cell with the nearest centre. Every sub-element lands where
+/// CellLocator::locate_from (and nearest_cell) would put it, found per particle from the
+/// cells near it (docs/polymesh.md, "How pmm locates sub-elements on a polyMesh").
 void polymesh_particle(const PolyContext& ctx, Scratch& s, const Particle& p, const kernels::ParticleTemplate* t,
                        const Eigen::Vector3d& centroid);
 
