@@ -134,7 +134,8 @@ std::string number_text(double v) {
 }
 
 void check_scene_kind(const std::string& scene, const std::string& dispersity) {
-  if (scene != "bed" && scene != "stream") bad_argument("--scene: unknown scene '" + scene + "'; expected bed or stream");
+  if (scene != "bed" && scene != "stream")
+    bad_argument("--scene: unknown scene '" + scene + "'; expected bed or stream");
   if (dispersity != "mono" && dispersity != "poly")
     bad_argument("--dispersity: unknown value '" + dispersity + "'; expected mono or poly");
 }
@@ -144,7 +145,8 @@ std::vector<std::int64_t> particle_counts(const std::vector<double>& values) {
   std::vector<std::int64_t> out;
   for (double x : values) {
     if (!(x >= 1) || x > 1e9 || x != std::floor(x))
-      bad_argument("--particles: bad value '" + number_text(x) + "'; expected whole counts from 1 to 1e9 (e.g. 1e4,1e5)");
+      bad_argument("--particles: bad value '" + number_text(x) +
+                   "'; expected whole counts from 1 to 1e9 (e.g. 1e4,1e5)");
     out.push_back(static_cast<std::int64_t>(x));
   }
   return out;
@@ -432,7 +434,8 @@ void write_file(const fs::path& file, const std::string& text) {
   std::ofstream out(file);
   out << text;
   out.flush();
-  if (!out) throw std::runtime_error(file.string() + ": cannot write the file; check that the output folder is writable");
+  if (!out)
+    throw std::runtime_error(file.string() + ": cannot write the file; check that the output folder is writable");
 }
 
 // --- the table ---------------------------------------------------------------------------
@@ -537,8 +540,8 @@ BenchScene make_bench_scene(const std::string& scene, const std::string& dispers
 }
 
 BenchOutcome run_bench(const BenchCommand& c) {
-  const auto log = c.logger ? c.logger
-                            : std::make_shared<spdlog::logger>("vfe-app", std::make_shared<spdlog::sinks::null_sink_mt>());
+  const auto quiet_sink = std::make_shared<spdlog::sinks::null_sink_mt>();
+  const auto log = c.logger ? c.logger : std::make_shared<spdlog::logger>("vfe-app", quiet_sink);
   share_one_malloc_arena();
   // Every argument is checked before the first (possibly long) scene is made.
   check_scene_kind(c.scene, c.dispersity);
@@ -614,11 +617,13 @@ BenchOutcome run_bench(const BenchCommand& c) {
           limit.chi = chi;
           limit.threads = t;
           out.limits.push_back(limit);
-          log->info("limits, {} thread(s): bandwidth {:.3f} ms, scatter {:.3f} ms, locate {:.3f} ms ({} template sizes)",
+          log->info("limits, {} thread(s): bandwidth {:.3f} ms, scatter {:.3f} ms, locate {:.3f} ms "
+                    "({} template sizes)",
                     t, limit.bandwidth_ms, limit.scatter_ms, limit.locate_ms, limit.locate_templates);
           if (c.table) {
             const double subel = double(limit.locate_sub_elements);
-            print_line(*c.table, n, chi, "(bw)", t, ncells, limit.bandwidth_ms, kNaN, kNaN, kNaN, kNaN, kNaN, kNaN, kNaN);
+            print_line(*c.table, n, chi, "(bw)", t, ncells, limit.bandwidth_ms, kNaN, kNaN, kNaN, kNaN, kNaN, kNaN,
+                       kNaN);
             print_line(*c.table, n, chi, "(scatter)", t, ncells, limit.scatter_ms, subel, kNaN, kNaN, kNaN, kNaN, kNaN,
                        kNaN);
             print_line(*c.table, n, chi, "(locate)", t, ncells, limit.locate_ms, subel, kNaN, kNaN, kNaN, kNaN, kNaN,

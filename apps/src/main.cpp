@@ -135,14 +135,16 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   bench->add_option("--dispersity", bench_cmd.dispersity, "mono (diameter 1) or poly (uniform in [0.7, 1.3])")
       ->capture_default_str();
-  bench->add_option("-n,--particles", bench_cmd.particles, "Particle counts, a list (default 1e4,1e5; e.g. 1e4,1e5,1e6,4e6)")
+  bench->add_option("-n,--particles", bench_cmd.particles,
+                    "Particle counts, a list (default 1e4,1e5; e.g. 1e4,1e5,1e6,4e6)")
       ->delimiter(',');
-  bench->add_option("--chi", bench_cmd.chi, "Cell size / mean diameter, a list (default 2; e.g. 0.5,1,2,4)")->delimiter(',');
+  bench->add_option("--chi", bench_cmd.chi, "Cell size / mean diameter, a list (default 2; e.g. 0.5,1,2,4)")
+      ->delimiter(',');
   bench->add_option("-t,--threads", bench_cmd.threads, "Thread counts, a list (default 1,2; 0 = all)")->delimiter(',');
   bench->add_option("--method", bench_cmd.methods, "Engine methods, a list (default direct,pmm,exact)")->delimiter(',');
   bench->add_option("--particle-grid", bench_cmd.particle_grid, "pmm's particle_grid: auto or a count")
       ->capture_default_str();
-  bench->add_option("--options", bench_cmd.options, "More engine options, \"key=value ...\" (e.g. fast_path=off)");
+  bench->add_option("--options", bench_cmd.options, "More engine options, \"key=value ...\" (e.g. orientation=none)");
   bench->add_option("-r,--repeats", bench_cmd.repeats, "Timed computes after one warm-up (the median is reported)")
       ->capture_default_str();
   bench->add_option("--seed", bench_cmd.seed, "Seed of the generated scene")->capture_default_str();
