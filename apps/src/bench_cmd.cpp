@@ -1,4 +1,5 @@
 #include "bench_cmd.hpp"
+#include "report.hpp"
 
 #include <vfe/engine.hpp>
 #include <vfe/kernels/particle_template.hpp>
@@ -380,12 +381,7 @@ Record record_of(const BenchLimit& l) {
 }
 
 std::string csv_value(const Value& v) {
-  if (const auto* s = std::get_if<std::string>(&v)) {
-    if (s->find_first_of(",\"\n\r") == std::string::npos) return *s;
-    std::string o = "\"";
-    for (char c : *s) o += c == '"' ? std::string("\"\"") : std::string(1, c);
-    return o + "\"";
-  }
+  if (const auto* s = std::get_if<std::string>(&v)) return csv_field(*s);
   if (const auto* i = std::get_if<std::int64_t>(&v)) return std::to_string(*i);
   const double x = std::get<double>(v);
   return std::isnan(x) ? "nan" : number_text(x);
@@ -428,14 +424,6 @@ std::string json_array(const std::vector<Record>& records) {
     o += "}";
   }
   return o + (records.empty() ? "]" : "\n  ]");
-}
-
-void write_file(const fs::path& file, const std::string& text) {
-  std::ofstream out(file);
-  out << text;
-  out.flush();
-  if (!out)
-    throw std::runtime_error(file.string() + ": cannot write the file; check that the output folder is writable");
 }
 
 // --- the table ---------------------------------------------------------------------------
@@ -711,8 +699,8 @@ BenchOutcome run_bench(const BenchCommand& c) {
   std::vector<Record> rows, limits;
   for (const BenchRow& r : out.rows) rows.push_back(record_of(r));
   for (const BenchLimit& l : out.limits) limits.push_back(record_of(l));
-  write_file(c.output / "bench.csv", csv_text(rows));
-  write_file(c.output / "limits.csv", csv_text(limits));
+  write_text_file(c.output / "bench.csv", csv_text(rows));
+  write_text_file(c.output / "limits.csv", csv_text(limits));
   std::ostringstream js;
   const Record info = {{"vfe_version", std::string(vfe_version())},
                        {"scene", c.scene},
@@ -726,7 +714,7 @@ BenchOutcome run_bench(const BenchCommand& c) {
   js << "{\n";
   for (const Field& f : info) js << "  \"" << f.name << "\": " << json_value(f.value) << ",\n";
   js << "  \"rows\": " << json_array(rows) << ",\n  \"limits\": " << json_array(limits) << "\n}\n";
-  write_file(c.output / "bench.json", js.str());
+  write_text_file(c.output / "bench.json", js.str());
   log->info("wrote {}, {} and {}", (c.output / "bench.csv").string(), (c.output / "limits.csv").string(),
             (c.output / "bench.json").string());
   return out;

@@ -58,13 +58,6 @@ std::string json_string(const std::string& s) {
   return o + "\"";
 }
 
-std::string csv_field(const std::string& s) {
-  if (s.find_first_of(",\"\n\r") == std::string::npos) return s;
-  std::string o = "\"";
-  for (char c : s) o += (c == '"') ? std::string("\"\"") : std::string(1, c);
-  return o + "\"";
-}
-
 void check_stream(const std::ofstream& out, const std::filesystem::path& file) {
   if (!out)
     throw std::runtime_error(file.string() + ": cannot write the file; check that the output folder "
@@ -211,6 +204,20 @@ void write_csv(const std::filesystem::path& file, const RunInfo& info, const std
   std::ofstream out(file);
   check_stream(out, file);
   out << o.str();
+  out.flush();
+  check_stream(out, file);
+}
+
+std::string csv_field(const std::string& s) {
+  if (s.find_first_of(",\"\n\r") == std::string::npos) return s;
+  std::string o = "\"";
+  for (char c : s) o += (c == '"') ? std::string("\"\"") : std::string(1, c);
+  return o + "\"";
+}
+
+void write_text_file(const std::filesystem::path& file, const std::string& text) {
+  std::ofstream out(file);
+  out << text;
   out.flush();
   check_stream(out, file);
 }

@@ -68,21 +68,6 @@ std::string quoted(const std::string& s) {
   return o + "\"";
 }
 
-std::string csv_field(const std::string& s) {
-  if (s.find_first_of(",\"\n") == std::string::npos) return s;
-  std::string o = "\"";
-  for (char c : s) o += c == '"' ? std::string("\"\"") : std::string(1, c);
-  return o + "\"";
-}
-
-void write_file(const fs::path& file, const std::string& text) {
-  std::ofstream out(file);
-  out << text;
-  out.flush();
-  if (!out)
-    throw std::runtime_error(file.string() + ": cannot write the file; check that the output folder is writable");
-}
-
 /// Prints rows of cells as aligned columns (first column left-aligned).
 void print_columns(std::ostream& out, const std::vector<std::vector<std::string>>& rows) {
   if (rows.empty()) return;
@@ -401,7 +386,7 @@ StudyResult run_study(const SceneConfig& cfg, const StudyOptions& opt) {
         << num(p.accuracy.l1, "nan") << ',' << num(p.accuracy.volume_error, "nan") << ','
         << p.accuracy.cells_compared << ',' << p.fast_path_particles << ',' << p.sub_elements << ','
         << p.particle_grid_min << ',' << p.particle_grid_max << ',' << (p.pareto ? 1 : 0) << '\n';
-  write_file(out_dir / "study.csv", csv.str());
+  write_text_file(out_dir / "study.csv", csv.str());
 
   std::ostringstream ccsv;
   ccsv << "scene,mesh,chi,base,family,setting,time_ms,l1,base_time_at_error,speedup,speedup_note,"
@@ -412,7 +397,7 @@ StudyResult run_study(const SceneConfig& cfg, const StudyOptions& opt) {
          << num(c.time_ms, "nan") << ',' << num(c.l1, "nan") << ',' << num(c.base_time_at_error, "nan") << ','
          << num(c.speedup, "nan") << ',' << csv_field(c.speedup_note) << ',' << num(c.base_error_at_time, "nan")
          << ',' << num(c.accuracy_gain, "nan") << ',' << csv_field(c.gain_note) << '\n';
-  write_file(out_dir / "comparisons.csv", ccsv.str());
+  write_text_file(out_dir / "comparisons.csv", ccsv.str());
 
   std::ostringstream js;
   js << "{\n  \"scene\": " << quoted(cfg.name) << ",\n  \"vfe_version\": " << quoted(vfe_version())
@@ -450,7 +435,7 @@ StudyResult run_study(const SceneConfig& cfg, const StudyOptions& opt) {
        << "}";
   }
   js << "\n  ]\n}\n";
-  write_file(out_dir / "study.json", js.str());
+  write_text_file(out_dir / "study.json", js.str());
   log->info("wrote {}, {} and {}", (out_dir / "study.csv").string(), (out_dir / "comparisons.csv").string(),
             (out_dir / "study.json").string());
   return result;

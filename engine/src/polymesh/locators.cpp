@@ -162,12 +162,20 @@ std::span<const std::uint32_t> SpatialHash::candidates(const Eigen::Vector3d& p)
   return {cells_.data() + begin, static_cast<std::size_t>(end - begin)};
 }
 
+bool SpatialHash::bin_range(const Eigen::AlignedBox3d& box, std::int64_t lo[3], std::int64_t hi[3]) const {
+  if (!(box.min().array() <= hi_.array()).all() || !(box.max().array() >= lo_.array()).all()) return false;
+  for (int d = 0; d < 3; ++d) {
+    lo[d] = bin(d, box.min()[d]);
+    hi[d] = bin(d, box.max()[d]);
+  }
+  return true;
+}
+
 void SpatialHash::cells_in_box(const Eigen::AlignedBox3d& box, std::vector<std::int64_t>& out) const {
   out.clear();
-  if (!(box.min().array() <= hi_.array()).all() || !(box.max().array() >= lo_.array()).all()) return;
-  const std::int64_t i0 = bin(0, box.min().x()), i1 = bin(0, box.max().x());
-  const std::int64_t j0 = bin(1, box.min().y()), j1 = bin(1, box.max().y());
-  const std::int64_t k0 = bin(2, box.min().z()), k1 = bin(2, box.max().z());
+  std::int64_t lo[3], hi[3];
+  if (!bin_range(box, lo, hi)) return;
+  const std::int64_t i0 = lo[0], i1 = hi[0], j0 = lo[1], j1 = hi[1], k0 = lo[2], k1 = hi[2];
   for (std::int64_t k = k0; k <= k1; ++k)
     for (std::int64_t j = j0; j <= j1; ++j)
       for (std::int64_t i = i0; i <= i1; ++i) {
@@ -186,10 +194,9 @@ void SpatialHash::cells_in_box(const Eigen::AlignedBox3d& box, std::vector<std::
 
 void SpatialHash::sorted_cells_in_box(const Eigen::AlignedBox3d& box, std::vector<std::int64_t>& out) const {
   out.clear();
-  if (!(box.min().array() <= hi_.array()).all() || !(box.max().array() >= lo_.array()).all()) return;
-  const std::int64_t i0 = bin(0, box.min().x()), i1 = bin(0, box.max().x());
-  const std::int64_t j0 = bin(1, box.min().y()), j1 = bin(1, box.max().y());
-  const std::int64_t k0 = bin(2, box.min().z()), k1 = bin(2, box.max().z());
+  std::int64_t lo[3], hi[3];
+  if (!bin_range(box, lo, hi)) return;
+  const std::int64_t i0 = lo[0], i1 = hi[0], j0 = lo[1], j1 = hi[1], k0 = lo[2], k1 = hi[2];
   for (std::int64_t k = k0; k <= k1; ++k)
     for (std::int64_t j = j0; j <= j1; ++j)
       for (std::int64_t i = i0; i <= i1; ++i) {

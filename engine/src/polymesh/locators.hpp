@@ -74,6 +74,8 @@ class SpatialHash {
 
  private:
   std::int64_t bin(int d, double x) const;
+  /// The bins a box overlaps, per axis lo..hi; false when it misses the hashed box.
+  bool bin_range(const Eigen::AlignedBox3d& box, std::int64_t lo[3], std::int64_t hi[3]) const;
 
   const PolyMesh* mesh_;
   Eigen::Vector3d lo_, hi_, inv_h_;
