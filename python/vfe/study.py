@@ -2,6 +2,7 @@
 
     rows = vfe.study.run(engine, centres, radii, vfe.study.points("pmm", ["particle_grid=5", "particle_grid=40"]))
     print(vfe.study.table(rows))
+    vfe.study.write_csv("study.csv", rows, scene="bed", mesh="chi2", chi=2)  # scripts/plot_study.py plots it
 
 Errors are against the reference method (exact) with the project's measures
 (vfe.compare_fields: theta = mean |eps - eps_exact| over cells either touches, max error,
@@ -16,9 +17,10 @@ import numpy as np
 from ._core import Engine, compare_fields
 
 
-def chi_grid(box, mean_diameter, chi):
-    """A Cartesian engine over a dump's box with cubic cells of chi * mean_diameter; an axis the
-    spacing does not divide is extended past the box (as `vfe study` makes its grids)."""
+def chi_grid_spec(box, mean_diameter, chi):
+    """(origin, spacing, cells) of a Cartesian grid over a dump's box with cubic cells of
+    chi * mean_diameter; an axis the spacing does not divide is extended past the box (as
+    `vfe study` makes its grids)."""
     h = chi * mean_diameter
     origin, spacing, cells = [], [], []
     for d in range(3):
@@ -32,19 +34,25 @@ def chi_grid(box, mean_diameter, chi):
         else:
             cells.append(max(1, math.ceil(ratio)))
             spacing.append(h)
+    return origin, spacing, cells
+
+
+def chi_grid(box, mean_diameter, chi):
+    """The engine on chi_grid_spec's grid."""
+    origin, spacing, cells = chi_grid_spec(box, mean_diameter, chi)
     return Engine.cartesian(origin=origin, spacing=spacing, cells=cells)
 
 
 def points(method, settings=("",), label=None, options=""):
     """(label, setting, option string) for each setting of one method family."""
     label = label or method
-    return [(label, s or "-", " ".join(x for x in (f"method={method}", options, s) if x)) for s in settings]
+    return [(label, s, " ".join(x for x in (f"method={method}", options, s) if x)) for s in settings]
 
 
 def run(engine, centres, radii, pts, reference="method=exact", repeats=5, options="outside=nearest threads=1"):
     """Times every point and measures it against the reference; one row (dict) per point:
-    family, setting, options, time_ms (median), time_min_ms, theta, max_error, l1, volume_error,
-    sub_elements."""
+    family, setting, options, reference (the point is the reference method), time_ms (median),
+    time_min_ms, theta, max_error, l1, volume_error, cells_compared, sub_elements."""
     volumes = engine.cell_volumes()
     engine.configure(options + " " + reference)
     exact = engine.compute(centres, radii)
@@ -53,7 +61,8 @@ def run(engine, centres, radii, pts, reference="method=exact", repeats=5, option
     for family, setting, opts in pts:
         engine.configure(options + " " + opts)
         solid = engine.compute(centres, radii)  # the warm-up, and the field measured
-        row = {"family": family, "setting": setting, "options": opts}
+        row = {"family": family, "setting": setting, "options": opts,
+               "reference": set(opts.split()) >= set(reference.split())}
         row.update(compare_fields(solid, exact, volumes, particle_volume))
         row["sub_elements"] = engine.report()["sub_elements"]
         row["times"] = []
@@ -86,36 +95,26 @@ def table(rows, front=None):
     out = ["| family | setting | ms/compute | L1 | theta | max error | front |",
            "|---|---|---:|---:|---:|---:|:-:|"]
     for r in rows:
-        out.append(f"| {r['family']} | {r['setting']} | {r['time_ms']:.3g} | {r['l1']:.3g} | {r['theta']:.3g} | "
+        out.append(f"| {r['family']} | {r['setting'] or '-'} | {r['time_ms']:.3g} | {r['l1']:.3g} | {r['theta']:.3g} | "
                    f"{r['max_error']:.3g} | {'*' if id(r) in front_ids else ''} |")
     return "\n".join(out)
 
 
-def plot(rows, path, title=""):
-    """Time against L1 per family (log-log; exact, with L1 = 0, as a vertical line), the
-    Pareto front dashed; saved as a PNG."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+CSV_COLUMNS = ["scene", "mesh", "chi", "nx", "ny", "nz", "cells", "particles", "threads", "repeats", "family",
+               "method", "setting", "options", "reference", "time_median_ms", "time_min_ms", "theta",
+               "max_error", "l1", "volume_error", "cells_compared", "sub_elements"]
 
-    fig, ax = plt.subplots(figsize=(7, 5))
-    families = list(dict.fromkeys(r["family"] for r in rows))
-    for fam in families:
-        rs = [r for r in rows if r["family"] == fam and r["l1"] > 0]
-        if rs:
-            ax.plot([r["time_ms"] for r in rs], [r["l1"] for r in rs], "o-", label=fam, ms=4)
+
+def write_csv(path, rows, **columns):
+    """Writes rows as `vfe study`'s study.csv (the columns scripts/plot_study.py reads);
+    columns gives the per-file values: scene, mesh, chi, nx, ny, nz, particles, threads, ..."""
+    import csv
+
+    with open(path, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=CSV_COLUMNS, extrasaction="ignore")
+        w.writeheader()
         for r in rows:
-            if r["family"] == fam and r["l1"] == 0:
-                ax.axvline(r["time_ms"], color="k", lw=0.8, ls=":", label=f"{fam} (L1 = 0)")
-    front = [r for r in pareto(rows) if r["l1"] > 0]
-    ax.plot([r["time_ms"] for r in front], [r["l1"] for r in front], "k--", lw=0.8, label="Pareto front")
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlabel("ms per compute")
-    ax.set_ylabel("L1 = sum |Vs - Vs_exact| / sum V_p")
-    ax.set_title(title)
-    ax.legend(fontsize=7)
-    ax.grid(True, which="both", lw=0.3)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+            out = dict(columns, **r)
+            out["time_median_ms"], out["reference"] = r["time_ms"], int(r["reference"])
+            out["method"] = next((t.split("=", 1)[1] for t in r["options"].split() if t.startswith("method=")), "")
+            w.writerow(out)

@@ -40,10 +40,11 @@ def test_study_rows_measure_each_point_against_exact():
     pts = vfe.study.points("direct") + vfe.study.points("pmm", ["particle_grid=5", "particle_grid=80"]) + \
         vfe.study.points("exact")
     rows = vfe.study.run(engine, centres, radii, pts, repeats=2)
-    assert [(r["family"], r["setting"]) for r in rows] == [("direct", "-"), ("pmm", "particle_grid=5"),
-                                                         ("pmm", "particle_grid=80"), ("exact", "-")]
+    assert [(r["family"], r["setting"]) for r in rows] == [("direct", ""), ("pmm", "particle_grid=5"),
+                                                         ("pmm", "particle_grid=80"), ("exact", "")]
     by = {r["setting"] if r["family"] == "pmm" else r["family"]: r for r in rows}
-    assert by["exact"]["l1"] == 0 and by["exact"]["theta"] == 0
+    assert by["exact"]["l1"] == 0 and by["exact"]["theta"] == 0 and by["exact"]["reference"]
+    assert not any(r["reference"] for r in rows[:3])
     assert by["direct"]["l1"] > by["particle_grid=5"]["l1"] > by["particle_grid=80"]["l1"] > 0
     engine.configure("method=exact")
     exact = engine.compute(centres, radii)
@@ -57,3 +58,29 @@ def test_study_rows_measure_each_point_against_exact():
 def test_pareto_keeps_the_points_nothing_beats():
     rows = [{"time_ms": t, "l1": l} for t, l in [(1, 0.5), (2, 0.6), (3, 0.1), (4, 0.0), (5, 0.0)]]
     assert [(r["time_ms"], r["l1"]) for r in vfe.study.pareto(rows)] == [(1, 0.5), (3, 0.1), (4, 0.0)]
+
+
+def test_study_equals_the_vfe_cli_study_on_the_same_points(tmp_path):
+    """`vfe study configs/study_bed.yaml --chi 3` and vfe.study on the same option strings."""
+    import csv
+    import os
+    import subprocess
+
+    cli = os.environ.get("VFE_CLI")
+    if not cli:
+        pytest.skip("VFE_CLI (the built vfe tool) is set by ctest")
+    from conftest import SOURCE_DIR
+    subprocess.run([cli, "study", str(SOURCE_DIR / "configs" / "study_bed.yaml"), "--chi", "3", "--repeats", "1",
+                    "--output", str(tmp_path), "-q"], check=True, capture_output=True)
+    with open(tmp_path / "study.csv", newline="") as f:
+        cli_rows = list(csv.DictReader(f))
+    frame = vfe.read_dump(DATA / "liggghts" / "bed_mono_final.dump.gz")
+    centres, radii = vfe.particles(frame)
+    engine = vfe.study.chi_grid(frame["box"], 2 * radii.mean(), chi=3)
+    assert [engine.cell_count] == list({int(r["cells"]) for r in cli_rows})
+    pts = [(r["family"], r["setting"], r["options"]) for r in cli_rows]
+    rows = vfe.study.run(engine, centres, radii, pts, repeats=0, options="")
+    assert len(rows) == len(cli_rows) > 30
+    for mine, theirs in zip(rows, cli_rows):
+        for k in ("l1", "theta", "max_error"):
+            assert mine[k] == pytest.approx(float(theirs[k]), rel=1e-9, abs=1e-15), (theirs["family"], theirs["setting"], k)
