@@ -443,7 +443,8 @@ PYBIND11_MODULE(_core, m) {
           py::arg("x"), py::arg("y"), py::arg("z"),
           "Rectilinear (graded) grid from strictly increasing node coordinates per axis.")
       .def_static(
-          "polymesh", [](const py::object& dir) { return std::make_unique<PyEngine>(vfe::PolyMeshSpec{path_string(dir)}); },
+          "polymesh",
+          [](const py::object& dir) { return std::make_unique<PyEngine>(vfe::PolyMeshSpec{path_string(dir)}); },
           py::arg("path"), "OpenFOAM polyMesh: a case folder, its constant folder or the polyMesh folder.")
       .def("configure", &PyEngine::configure, py::arg("options") = "",
            "Applies a 'key=value key=value' string and/or keywords (bools as 0/1); all or nothing.")

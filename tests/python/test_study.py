@@ -83,4 +83,5 @@ def test_study_equals_the_vfe_cli_study_on_the_same_points(tmp_path):
     assert len(rows) == len(cli_rows) > 30
     for mine, theirs in zip(rows, cli_rows):
         for k in ("l1", "theta", "max_error"):
-            assert mine[k] == pytest.approx(float(theirs[k]), rel=1e-9, abs=1e-15), (theirs["family"], theirs["setting"], k)
+            where = (theirs["family"], theirs["setting"], k)
+            assert mine[k] == pytest.approx(float(theirs[k]), rel=1e-9, abs=1e-15), where
