@@ -63,3 +63,26 @@ def test_one_engine_shared_by_two_threads_is_used_by_one_at_a_time():
                                 [lambda: (e.configure(method="pmm"), e.report()["particles"])[1]])
     assert np.array_equal(results[0], want) and np.array_equal(results[1], want)
     assert results[2] == len(radii)
+
+
+def test_python_runs_while_a_compute_is_under_way():
+    """The GIL is released: the main thread finishes a Python loop while another thread is
+    still inside a long compute (were it held, the loop could only end after the compute)."""
+    centres, radii = bed()
+    e = make_engine()
+    e.configure(particle_grid=1280)
+    started, times = threading.Event(), {}
+
+    def work():
+        started.set()
+        e.compute(centres, radii)
+        times["compute_end"] = time.perf_counter()
+
+    worker = threading.Thread(target=work)
+    worker.start()
+    started.wait()
+    time.sleep(0.01)  # lets the worker enter the compute
+    total = sum(i for i in range(10000))
+    times["python_end"] = time.perf_counter()
+    worker.join()
+    assert total == 49995000 and times["python_end"] < times["compute_end"]
