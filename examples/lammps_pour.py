@@ -3,8 +3,9 @@
 computes the void fraction of a Cartesian grid every N steps, reading LAMMPS's own position
 and radius arrays in place (no copy).
 
-Needs Debian's python3-lammps and liblammps-dev (the latter provides the liblammps.so the
-module loads); scripts/setup.sh installs both when the distribution has them.
+Needs Debian's python3-lammps and liblammps-dev (LAMMPS 29 Sep 2021 in Debian 12; the latter
+provides the liblammps.so the module loads); scripts/setup.sh installs both when the
+distribution has them. tests/python/test_examples.py runs a short pour.
 
     PYTHONPATH=build/release/python /usr/bin/python3 examples/lammps_pour.py [--steps 40000] [--every 5000]
 
