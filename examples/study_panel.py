@@ -6,7 +6,8 @@ table (Pareto front marked) and plots the panel with scripts/plot_study.py.
     PYTHONPATH=build/release/python /usr/bin/python3 examples/study_panel.py [--chi 2] [-o out/study_panel]
 
 The points are those of configs/study_bed.yaml (one thread, median of 9 computes, every point
-once per round), so the errors equal `vfe study configs/study_bed.yaml --chi 2`'s.
+once per round), so the errors equal `vfe study configs/study_bed.yaml --chi 2`'s and, but for
+pmm (whose default template is now fibonacci, spherical when the doc was made), the doc's.
 """
 import argparse
 import pathlib

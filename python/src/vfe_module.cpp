@@ -304,32 +304,46 @@ std::vector<double> nodes(const py::object& obj, const char* axis) {
   return {a.data(), a.data() + a.size()};
 }
 
+/// Sets one vfe::StabilityOptions field from a keyword (py::cast_error for a wrong type).
+void stability_option(vfe::StabilityOptions& o, const std::string& key, const py::handle& v) {
+  if (key == "chi") o.chi = v.cast<double>();
+  else if (key == "method") o.method = v.cast<std::string>();
+  else if (key == "engine_options") o.engine_options = v.cast<std::string>();
+  else if (key == "particle_grids") {
+    if (py::isinstance<py::str>(v) || py::isinstance<py::int_>(v))
+      o.particle_grids.push_back(py::str(v).cast<std::string>());  // one grid: "auto" or 40
+    else
+      for (const auto& g : v) o.particle_grids.push_back(py::str(g).cast<std::string>());
+  } else if (key == "step") o.step = v.cast<double>();
+  else if (key == "cells") o.cells = v.cast<double>();
+  else if (key == "trajectories") o.trajectories = v.cast<int>();
+  else if (key == "seed") o.seed = v.cast<std::uint64_t>();
+  else if (key == "jump_criterion") o.jump_criterion = v.cast<double>();
+  else if (key == "superficial_velocity") o.superficial_velocity = v.cast<double>();
+  else if (key == "fluid_dt") o.fluid_dt = v.cast<double>();
+  else if (key == "diameter") o.diameter = v.cast<double>();
+  else if (key == "threads") o.threads = v.cast<int>();
+  else if (key == "shape") o.shape = v.cast<std::string>();
+  else if (key == "reference_grid") o.reference_grid = v.cast<std::int64_t>();
+  else
+    throw py::type_error("stability_test: unknown option '" + key +
+                         "'; known: chi, method, engine_options, particle_grids, step, cells, trajectories, "
+                         "seed, jump_criterion, superficial_velocity, fluid_dt, diameter, threads, shape, "
+                         "reference_grid");
+}
+
 /// vfe.stability_test(**options): the keys of vfe::StabilityOptions.
 py::dict stability_test(const py::kwargs& kw) {
   vfe::StabilityOptions o;
   for (const auto& [k, v] : kw) {
     const std::string key = py::str(k).cast<std::string>();
-    if (key == "chi") o.chi = v.cast<double>();
-    else if (key == "method") o.method = v.cast<std::string>();
-    else if (key == "engine_options") o.engine_options = v.cast<std::string>();
-    else if (key == "particle_grids") {
-      for (const auto& g : v) o.particle_grids.push_back(py::str(g).cast<std::string>());
-    } else if (key == "step") o.step = v.cast<double>();
-    else if (key == "cells") o.cells = v.cast<double>();
-    else if (key == "trajectories") o.trajectories = v.cast<int>();
-    else if (key == "seed") o.seed = v.cast<std::uint64_t>();
-    else if (key == "jump_criterion") o.jump_criterion = v.cast<double>();
-    else if (key == "superficial_velocity") o.superficial_velocity = v.cast<double>();
-    else if (key == "fluid_dt") o.fluid_dt = v.cast<double>();
-    else if (key == "diameter") o.diameter = v.cast<double>();
-    else if (key == "threads") o.threads = v.cast<int>();
-    else if (key == "shape") o.shape = v.cast<std::string>();
-    else if (key == "reference_grid") o.reference_grid = v.cast<std::int64_t>();
-    else
-      throw py::type_error("stability_test: unknown option '" + key +
-                           "'; known: chi, method, engine_options, particle_grids, step, cells, trajectories, "
-                           "seed, jump_criterion, superficial_velocity, fluid_dt, diameter, threads, shape, "
-                           "reference_grid");
+    try {
+      stability_option(o, key, v);
+    } catch (const py::cast_error&) {
+      throw py::type_error("stability_test: " + key + "=" + py::repr(v).cast<std::string>() +
+                           " has the wrong type (numbers for chi, step, cells, ...; str for method, "
+                           "engine_options, shape; a list for particle_grids)");
+    }
   }
   vfe::StabilityReport rep;
   {

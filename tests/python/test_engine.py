@@ -224,5 +224,9 @@ def test_stability_test_direct_jumps_by_one_whole_particle():
     assert fine["grid_max"] >= 400 and fine["excess_jump"] < row["excess_jump"] / 5
     with pytest.raises(TypeError, match="unknown option"):
         vfe.stability_test(chii=2)
+    with pytest.raises(TypeError, match="wrong type"):
+        vfe.stability_test(chi="two")
+    single = vfe.stability_test(chi=2, method="pmm", particle_grids="auto", trajectories=1)["results"]
+    assert [r["particle_grid"] for r in single] == ["auto"]
     with pytest.raises(vfe.Error):
         vfe.stability_test(chi=-1)
