@@ -155,11 +155,10 @@ def test_errors_carry_the_status_name_and_message_and_leave_the_engine_usable():
     with pytest.raises(vfe.Error) as info:
         vfe.Engine.cartesian(origin=(0, 0, 0), spacing=(1, 1, 1), cells=(0, 1, 1))
     assert info.value.status == "VFE_ERROR_INVALID_ARGUMENT"
-    e.configure(method="gaussian")
-    p = vfe.Engine.rectilinear([0, 1], [0, 1], [0, 1])
-    p.configure(method="gaussian")
-    with pytest.raises(vfe.Error) as info:
-        p.compute(np.array([[0.5, 0.5, 0.5]]), np.array([0.1]))
+    p = vfe.Engine.polymesh(DATA / "openfoam" / "box_uniform_10x10x30")
+    with pytest.raises(vfe.Error) as info:  # periodic axes are for Cartesian and rectilinear grids
+        p.configure(periodic="x")
+        p.compute(np.array([[0.005, 0.005, 0.005]]), np.array([0.001]))
     assert info.value.status == "VFE_ERROR_UNSUPPORTED"
     assert vfe.status_name(2) == "VFE_ERROR_OUT_OF_DOMAIN"
 
