@@ -6,8 +6,10 @@ table (Pareto front marked) and plots the panel with scripts/plot_study.py.
     PYTHONPATH=build/release/python /usr/bin/python3 examples/study_panel.py [--chi 2] [-o out/study_panel]
 
 The points are those of configs/study_bed.yaml (one thread, median of 9 computes, every point
-once per round), so the errors equal `vfe study configs/study_bed.yaml --chi 2`'s and, but for
-pmm (whose default template is now fibonacci, spherical when the doc was made), the doc's.
+once per round; pmm with the spherical template the doc was made with, not the engine's
+default fibonacci), so the errors equal `vfe study configs/study_bed.yaml --chi 2`'s and, but
+for pmm (its random rotations and particle_grid=auto have changed since, see docs/study.md),
+the doc's.
 """
 import argparse
 import pathlib
@@ -32,7 +34,7 @@ def main():
     engine = vfe.Engine.cartesian(origin=origin, spacing=spacing, cells=(nx, ny, nz))
     grids = [f"particle_grid={n}" for n in (5, 10, 20, 40, 80, 160, 320, 640, 1280)] + ["particle_grid=auto"]
     pts = (vfe.study.points("direct")
-           + vfe.study.points("pmm", grids)
+           + vfe.study.points("pmm", grids, "pmm", "template=spherical")
            + vfe.study.points("pmm", [f"particle_grid={n}" for n in (10, 40, 160, 640)], "pmm_fibonacci",
                               "template=fibonacci")
            + vfe.study.points("pmm", [f"particle_grid={n}" for n in (8, 19, 81, 136, 280, 552, 1189)], "pmm_voxel",
