@@ -2,10 +2,13 @@
 #pragma once
 
 #include <vfe/kernels/polytope.hpp>
+#include <vfe/kernels/shape.hpp>
 
 #include <Eigen/Core>
 
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <random>
 #include <vector>
@@ -69,6 +72,43 @@ inline std::vector<Eigen::Vector3d> cell_tetrahedra(const FacedCell& c) {
                             [&](const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& p,
                                 const Eigen::Vector3d& q) { tets.insert(tets.end(), {a, b, p, q}); });
   return tets;
+}
+
+/// Volume of the corner simplex {x >= 0, x + y + z <= 1} inside [lo, hi]: inclusion-
+/// exclusion over the corners c of the box clamped to the orthant, each orthant
+/// {x >= c} cutting (1 - sum c)^3 / 6 from the simplex.
+inline double simplex_box_volume(Eigen::Vector3d lo, Eigen::Vector3d hi) {
+  lo = lo.cwiseMax(0.0);
+  hi = hi.cwiseMax(0.0);
+  if ((hi - lo).minCoeff() <= 0) return 0;
+  double v = 0;
+  for (int k = 0; k < 8; ++k) {
+    const Eigen::Vector3d c(k & 1 ? hi[0] : lo[0], k & 2 ? hi[1] : lo[1], k & 4 ? hi[2] : lo[2]);
+    const int highs = (k & 1) + ((k >> 1) & 1) + ((k >> 2) & 1);
+    v += (highs % 2 ? -1.0 : 1.0) * std::pow(std::max(0.0, 1.0 - c.sum()), 3) / 6.0;
+  }
+  return v;
+}
+
+/// The box [lo, hi] as a closed triangle mesh (two triangles per face).
+inline kernels::TriangleMesh box_mesh(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) {
+  kernels::TriangleMesh m;
+  for (int k = 0; k < 8; ++k) m.vertices.emplace_back(k & 1 ? hi[0] : lo[0], k & 2 ? hi[1] : lo[1], k & 4 ? hi[2] : lo[2]);
+  const FacedCell c = box_cell(lo, hi);
+  for (std::size_t f = 0; f + 1 < c.offsets.size(); ++f) {
+    const int* q = &c.faces[std::size_t(c.offsets[f])];
+    m.triangles.emplace_back(q[0], q[1], q[2]);
+    m.triangles.emplace_back(q[0], q[2], q[3]);
+  }
+  return m;
+}
+
+/// The corner tetrahedron (0, x, y, z).
+inline kernels::TriangleMesh tetrahedron_mesh() {
+  kernels::TriangleMesh m;
+  m.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  m.triangles = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
+  return m;
 }
 
 }  // namespace vfe::test

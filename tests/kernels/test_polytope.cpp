@@ -18,6 +18,7 @@ using namespace vfe::kernels;
 using vfe::test::box_cell;
 using vfe::test::cell_tetrahedra;
 using vfe::test::FacedCell;
+using vfe::test::simplex_box_volume;
 using vfe::test::warped_grid;
 
 namespace {
@@ -25,22 +26,6 @@ namespace {
 const Eigen::Vector3d kO(0, 0, 0), kX(1, 0, 0), kY(0, 1, 0), kZ(0, 0, 1);
 
 double factorial(int n) { return std::tgamma(n + 1.0); }
-
-/// Volume of the corner simplex {x >= 0, x + y + z <= 1} inside [lo, hi]: inclusion-
-/// exclusion over the corners c of the box clamped to the orthant, each orthant
-/// {x >= c} cutting (1 - sum c)^3 / 6 from the simplex.
-double simplex_box_volume(Eigen::Vector3d lo, Eigen::Vector3d hi) {
-  lo = lo.cwiseMax(0.0);
-  hi = hi.cwiseMax(0.0);
-  if ((hi - lo).minCoeff() <= 0) return 0;
-  double v = 0;
-  for (int k = 0; k < 8; ++k) {
-    const Eigen::Vector3d c(k & 1 ? hi[0] : lo[0], k & 2 ? hi[1] : lo[1], k & 4 ? hi[2] : lo[2]);
-    const int highs = (k & 1) + ((k >> 1) & 1) + ((k >> 2) & 1);
-    v += (highs % 2 ? -1.0 : 1.0) * std::pow(std::max(0.0, 1.0 - c.sum()), 3) / 6.0;
-  }
-  return v;
-}
 
 /// The unit cube as 6 tetrahedra around its diagonal (Kuhn), all positive.
 std::vector<std::array<Eigen::Vector3d, 4>> kuhn_cube(const Eigen::Vector3d& lo, double side) {

@@ -25,8 +25,9 @@ struct Ellipsoid {
   Eigen::Matrix3d to_unit() const;
 };
 
-/// Volume of the ellipsoid inside the polyhedron given by its faces (the layout and
-/// orientation of sphere_polyhedron_overlap). `scratch` must hold vertices.size() points
+/// Volume of the ellipsoid inside the polyhedron given by its planar faces (the layout
+/// and orientation of sphere_polyhedron_overlap; a cell with warped faces: the
+/// tetrahedra form below). `scratch` must hold vertices.size() points
 /// (the mapped vertices; caller-owned so the call does not allocate). Exact to round-off
 /// (a few 1e-16 of the ellipsoid's volume) with the guarantees of sphere_polyhedron_overlap:
 /// exactly 0 for a cell the ellipsoid misses, exactly its volume for a cell containing it.
