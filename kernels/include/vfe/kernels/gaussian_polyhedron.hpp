@@ -7,8 +7,11 @@
 
 namespace vfe::kernels {
 
-/// Default absolute tolerance on a cell's share of the kernel (whose total is 1).
-inline constexpr double kGaussianCellTolerance = 1e-7;
+/// Default absolute tolerance on a cell's share of the kernel (whose total is 1). The
+/// error estimate is conservative: the errors measured on box cells against the closed
+/// form stay below 1e-8 at this setting (test GaussianPolyhedronIntegral prints them);
+/// about 150 us per hexahedral cell (24 tetrahedra) overlapping the kernel.
+inline constexpr double kGaussianCellTolerance = 1e-6;
 
 /// The cut, normalised Gaussian's mass inside a cell given as signed tetrahedra
 /// (TetrahedraView): each tetrahedron is clipped exactly to the cut box
