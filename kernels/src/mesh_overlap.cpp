@@ -28,8 +28,8 @@ void for_each_particle_tetrahedron(const PlacedMesh& m, F&& f) {
   }
 }
 
-/// Outward planes (n, d), n . x <= d inside, of the tetrahedron (a, b, c, d) with
-/// orientation sign s.
+/// Outward planes (n, d), n . x <= d inside, of the tetrahedron (a, b, c, d), either
+/// orientation.
 std::array<Eigen::Vector4d, 4> tetrahedron_planes(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
                                                   const Eigen::Vector3d& c, const Eigen::Vector3d& d) {
   const std::array<const Eigen::Vector3d*, 4> p{&a, &b, &c, &d};
