@@ -558,6 +558,14 @@ class SubElements {
 
 }  // namespace
 
+bool cell_is_box(const PolyMesh& mesh, std::int64_t c, Eigen::AlignedBox3d& box) {
+  const std::array<std::int32_t, 2> corners = box_corners(mesh, c);
+  if (corners[0] < 0) return false;
+  box = Eigen::AlignedBox3d(mesh.points()[static_cast<std::size_t>(corners[0])],
+                            mesh.points()[static_cast<std::size_t>(corners[1])]);
+  return true;
+}
+
 void polymesh_points(const PolyContext& ctx, Scratch& s, const Particle& p, const kernels::ParticleTemplate& t,
                      const Eigen::Matrix3d& rotation, Outside policy, std::int64_t centre_cell) {
   const PolyMesh& mesh = ctx.locator->mesh();

@@ -28,11 +28,23 @@ void outside_poly(const PolyContext& ctx, Scratch& s, const Particle& p, double 
 void polymesh_points(const PolyContext& ctx, Scratch& s, const Particle& p, const kernels::ParticleTemplate& t,
                      const Eigen::Matrix3d& rotation, Outside policy, std::int64_t centre_cell);
 
+/// Cell c's boundary as outward polygons into s.cell_points / cell_face_offsets /
+/// cell_face_points: a planar face as its polygon, a warped one as the fan (apex, P_i,
+/// P_i+1). Both cells of a face see the same surface (the point-location one), so their
+/// overlaps with any body add up to that of their union.
+void cell_boundary(const PolyMesh& mesh, std::int64_t c, Scratch& s);
+
+/// True when cell c is an axis-aligned box (convex, every face in one of the six planes of
+/// its points' box); then box holds it.
+bool cell_is_box(const PolyMesh& mesh, std::int64_t c, Eigen::AlignedBox3d& box);
+
 // The methods on a polyMesh: s gets the particle's deposits.
 void polymesh_direct(const PolyContext& ctx, Scratch& s, const Particle& p);
 void polymesh_pmm(const PolyContext& ctx, Scratch& s, const Particle& p);
 void polymesh_divided(const PolyContext& ctx, Scratch& s, const Particle& p);
 void polymesh_big_particle(const PolyContext& ctx, Scratch& s, const Particle& p);
+void polymesh_gaussian(const PolyContext& ctx, Scratch& s, const Particle& p);
+void polymesh_porous_cube(const PolyContext& ctx, Scratch& s, const Particle& p);
 
 /// exact on a polyMesh: the exact overlap volume of sphere p with every cell it reaches,
 /// each cell bounded by its faces: a planar face as its polygon, a warped one as the fan

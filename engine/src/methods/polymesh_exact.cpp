@@ -7,8 +7,6 @@
 
 namespace vfe::detail {
 
-namespace {
-
 /// Cell c's boundary as outward polygons into s.cell_*: a planar face as its polygon, a
 /// warped one as the fan (apex, P_i, P_i+1). Both cells of a face thus see the same
 /// surface (the point-location one), and their overlaps add up to that of their union.
@@ -39,7 +37,6 @@ void cell_boundary(const PolyMesh& mesh, std::int64_t c, Scratch& s) {
   }
 }
 
-}  // namespace
 
 void polymesh_exact(const PolyContext& ctx, Scratch& s, const Particle& p) {
   const PolyMesh& mesh = ctx.locator->mesh();

@@ -9,9 +9,8 @@ const MethodDrivers kMethods[] = {
     {Method::pmm, pmm_particle, rectilinear_pmm, polymesh_pmm, true, ""},
     {Method::exact, exact_particle, rectilinear_exact, polymesh_exact, false, ""},
     {Method::divided, divided_particle, rectilinear_divided, polymesh_divided, false, ""},
-    {Method::gaussian, gaussian_particle, rectilinear_gaussian, nullptr, false, "use pmm, exact, divided or big_particle"},
-    {Method::porous_cube, porous_cube_particle, rectilinear_porous_cube, nullptr, false,
-     "use pmm, exact, divided or big_particle"},
+    {Method::gaussian, gaussian_particle, rectilinear_gaussian, polymesh_gaussian, false, ""},
+    {Method::porous_cube, porous_cube_particle, rectilinear_porous_cube, polymesh_porous_cube, false, ""},
     {Method::big_particle, big_particle_particle, rectilinear_big_particle, polymesh_big_particle, false, ""},
     // Cloud-in-cell needs the 8 cells whose centres surround a point: a structured stencil
     // an unstructured mesh does not have.
