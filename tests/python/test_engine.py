@@ -155,11 +155,12 @@ def test_errors_carry_the_status_name_and_message_and_leave_the_engine_usable():
     with pytest.raises(vfe.Error) as info:
         vfe.Engine.cartesian(origin=(0, 0, 0), spacing=(1, 1, 1), cells=(0, 1, 1))
     assert info.value.status == "VFE_ERROR_INVALID_ARGUMENT"
+    e.configure(method="gaussian")
     p = vfe.Engine.polymesh(DATA / "openfoam" / "box_uniform_10x10x30")
-    with pytest.raises(vfe.Error) as info:  # periodic axes are for Cartesian and rectilinear grids
-        p.configure(periodic="x")
-        p.compute(np.array([[0.005, 0.005, 0.005]]), np.array([0.001]))
+    with pytest.raises(vfe.Error) as info:  # a method the mesh kind cannot run: refused at once
+        p.configure(method="trilinear")
     assert info.value.status == "VFE_ERROR_UNSUPPORTED"
+    assert p.option("method") == "pmm"
     assert vfe.status_name(2) == "VFE_ERROR_OUT_OF_DOMAIN"
 
 
