@@ -16,7 +16,7 @@ namespace vfe {
 
 /// A user-facing failure: a status for the C API and a message that says what was
 /// wrong and how to fix it.
-class Error : public std::runtime_error {
+class VFE_API Error : public std::runtime_error {
  public:
   Error(vfe_status status, const std::string& message)
       : std::runtime_error(message), status_(status) {}
@@ -66,7 +66,7 @@ struct ParticleView {
 
 using Report = vfe_report;
 
-class Engine {
+class VFE_API Engine {
  public:
   /// Builds an engine on a Cartesian grid; throws Error on invalid geometry.
   explicit Engine(const CartesianGridSpec& grid);
