@@ -39,8 +39,8 @@ TEST(ConcurrentEngines, TwoEnginesInTwoThreadsGiveTheirSerialResults) {
   Engine cartesian(grid(0.5, 12, 12, 12));
   const std::vector<double> graded = {0, 0.4, 0.9, 1.5, 2.2, 3.0, 3.9, 4.9, 6.0};  // cells grow along each axis
   Engine rectilinear(vfe::RectilinearGridSpec{{graded, graded, graded}});
-  const Particles a = random_spheres(21, 600, 0.5, 5.5, 0.15, 0.45);
-  const Particles b = random_spheres(22, 400, 0.5, 5.5, 0.2, 0.5);
+  const Particles a = random_spheres(21, 2000, 0.5, 5.5, 0.15, 0.45);
+  const Particles b = random_spheres(22, 1200, 0.5, 5.5, 0.2, 0.5);
   const std::vector<Job> jobs = {
       {&cartesian, &a, "method=pmm template=fibonacci particle_grid=60 deterministic=1"},
       {&rectilinear, &b, "method=exact deterministic=1"}};
@@ -50,7 +50,7 @@ TEST(ConcurrentEngines, TwoEnginesInTwoThreadsGiveTheirSerialResults) {
   for (const Job& j : jobs) serial.push_back(run(*j.engine, *j.particles, j.options + " threads=1"));
 
   // Both engines at once, each with its own two-thread arena; repeated so the computes overlap.
-  constexpr int kRepeats = 3;
+  constexpr int kRepeats = 4;
   std::vector<std::vector<std::vector<double>>> concurrent(jobs.size());
   std::latch start(static_cast<std::ptrdiff_t>(jobs.size()));
   std::vector<std::thread> threads;
