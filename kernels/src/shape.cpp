@@ -6,6 +6,7 @@
 #include <map>
 #include <numbers>
 #include <numeric>
+#include <random>
 #include <sstream>
 #include <stdexcept>
 
@@ -52,6 +53,31 @@ void merge_intervals(std::vector<std::pair<double, double>>& v) {
       v[w++] = v[i];
   }
   v.resize(w);
+}
+
+/// The z-intervals where the vertical line through (x, y) lies inside the closed mesh.
+void mesh_column(const TriangleMesh& mesh, double x, double y, std::vector<std::pair<double, double>>& out) {
+  out.clear();
+  // Crossings of the vertical line with the triangles, paired in order (a closed
+  // surface is crossed an even number of times).
+  std::vector<double> z;
+  for (const auto& t : mesh.triangles) {
+    const Eigen::Vector3d &a = mesh.vertices[t[0]], &b = mesh.vertices[t[1]], &c = mesh.vertices[t[2]];
+    const double w0 = (b[0] - x) * (c[1] - y) - (c[0] - x) * (b[1] - y);
+    const double w1 = (c[0] - x) * (a[1] - y) - (a[0] - x) * (c[1] - y);
+    const double w2 = (a[0] - x) * (b[1] - y) - (b[0] - x) * (a[1] - y);
+    const double sum = w0 + w1 + w2;
+    if (sum == 0) continue;  // vertical triangle
+    // Half-open rule so a line through a shared edge counts once.
+    const bool pos = (w0 > 0 || (w0 == 0 && sum > 0)) && (w1 > 0 || (w1 == 0 && sum > 0)) &&
+                     (w2 > 0 || (w2 == 0 && sum > 0));
+    const bool neg = (w0 < 0 || (w0 == 0 && sum < 0)) && (w1 < 0 || (w1 == 0 && sum < 0)) &&
+                     (w2 < 0 || (w2 == 0 && sum < 0));
+    if (!pos && !neg) continue;
+    z.push_back((w0 * a[2] + w1 * b[2] + w2 * c[2]) / sum);
+  }
+  std::sort(z.begin(), z.end());
+  for (std::size_t i = 0; i + 1 < z.size(); i += 2) out.emplace_back(z[i], z[i + 1]);
 }
 
 }  // namespace
@@ -307,26 +333,7 @@ void Shape::column(double x, double y, std::vector<std::pair<double, double>>& o
       break;
     }
     case Kind::mesh: {
-      // Crossings of the vertical line with the triangles, paired in order (a closed
-      // surface is crossed an even number of times).
-      std::vector<double> z;
-      for (const auto& t : mesh_.triangles) {
-        const Eigen::Vector3d &a = mesh_.vertices[t[0]], &b = mesh_.vertices[t[1]], &c = mesh_.vertices[t[2]];
-        const double w0 = (b[0] - x) * (c[1] - y) - (c[0] - x) * (b[1] - y);
-        const double w1 = (c[0] - x) * (a[1] - y) - (a[0] - x) * (c[1] - y);
-        const double w2 = (a[0] - x) * (b[1] - y) - (b[0] - x) * (a[1] - y);
-        const double sum = w0 + w1 + w2;
-        if (sum == 0) continue;  // vertical triangle
-        // Half-open rule so a line through a shared edge counts once.
-        const bool pos = (w0 > 0 || (w0 == 0 && sum > 0)) && (w1 > 0 || (w1 == 0 && sum > 0)) &&
-                         (w2 > 0 || (w2 == 0 && sum > 0));
-        const bool neg = (w0 < 0 || (w0 == 0 && sum < 0)) && (w1 < 0 || (w1 == 0 && sum < 0)) &&
-                         (w2 < 0 || (w2 == 0 && sum < 0));
-        if (!pos && !neg) continue;
-        z.push_back((w0 * a[2] + w1 * b[2] + w2 * c[2]) / sum);
-      }
-      std::sort(z.begin(), z.end());
-      for (std::size_t i = 0; i + 1 < z.size(); i += 2) out.emplace_back(z[i], z[i + 1]);
+      mesh_column(mesh_, x, y, out);
       break;
     }
   }
@@ -389,6 +396,41 @@ void bisect(std::vector<Eigen::Vector3d>& pts, std::size_t b, std::size_t e, int
   bisect(pts, mid, e, n - n1, total, t);
 }
 
+/// Moves the template's centre of volume onto the shape's exact centroid; sets its reach.
+void centre_on_centroid(const Shape& shape, ParticleTemplate& t) {
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (std::size_t i = 0; i < t.size(); ++i) mean += t.fractions[i] * t.points[i];
+  const Eigen::Vector3d shift = shape.centroid() - mean;
+  t.reach = 0;
+  for (auto& p : t.points) {
+    p += shift;
+    t.reach = std::max(t.reach, p.norm());
+  }
+}
+
+/// Cuts the samples into n parts by bisection (at most a twentieth of the samples), one
+/// sub-element at each part's centroid; the template's centre goes onto the exact
+/// centroid. With `turn` the samples are in a turned lattice's frame (body = turn * q)
+/// and every part gets exactly 1/n; without, its share of the samples.
+ParticleTemplate partition_samples(const Shape& shape, std::vector<Eigen::Vector3d>& samples, int n,
+                                   const Eigen::Matrix3d* turn) {
+  ParticleTemplate t;
+  t.family = "shape";
+  if (samples.empty()) {
+    t.points.push_back(shape.centroid());
+    t.fractions.push_back(1.0);
+  } else {
+    const int parts = static_cast<int>(std::min<std::size_t>(std::size_t(n), std::max<std::size_t>(1, samples.size() / 20)));
+    bisect(samples, 0, samples.size(), parts, double(samples.size()), t);
+    if (turn) {
+      for (auto& p : t.points) p = *turn * p;
+      for (auto& f : t.fractions) f = 1.0 / double(t.size());
+    }
+  }
+  centre_on_centroid(shape, t);
+  return t;
+}
+
 }  // namespace
 
 ParticleTemplate make_shape_template(const Shape& shape, int n) {
@@ -412,25 +454,63 @@ ParticleTemplate make_shape_template(const Shape& shape, int n) {
 ParticleTemplate make_shape_template(const Shape& shape, int n, std::vector<Eigen::Vector3d> samples) {
   n = std::max(n, 1);
   if (shape.kind() == Shape::Kind::sphere || shape.kind() == Shape::Kind::ellipsoid) return make_shape_template(shape, n);
-  ParticleTemplate t;
-  t.family = "shape";
-  if (samples.empty()) {
-    t.points.push_back(shape.centroid());
-    t.fractions.push_back(1.0);
-  } else {
-    const int parts = static_cast<int>(std::min<std::size_t>(std::size_t(n), std::max<std::size_t>(1, samples.size() / 20)));
-    bisect(samples, 0, samples.size(), parts, double(samples.size()), t);
+  return partition_samples(shape, samples, n, nullptr);
+}
+
+ParticleTemplate make_shape_template_variant(const Shape& shape, int n, std::uint32_t variant,
+                                             std::size_t samples_per_element) {
+  n = std::max(n, 1);
+  if (variant == 0) return make_shape_template(shape, n);
+  // Fixed per variant: a rotation of the partition about the shape's own axes, and a
+  // shift of the sampling lattice by a fraction of its spacing.
+  constexpr std::uint64_t kSalt = 0x5eed5a3b1e5ULL;
+  const Eigen::Matrix3d turn = random_rotation(variant, kSalt);
+  if (shape.kind() == Shape::Kind::sphere || shape.kind() == Shape::Kind::ellipsoid) {
+    ParticleTemplate t = make_fibonacci_template(n);
+    t.family = shape.kind() == Shape::Kind::sphere ? "fibonacci" : "ellipsoid";
+    for (auto& p : t.points) p = (turn * p).cwiseProduct(shape.axes());
+    for (auto& f : t.fractions) f = 1.0 / double(n);
+    centre_on_centroid(shape, t);
+    return t;
   }
-  // Move the template's centre of volume onto the exact centroid.
-  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-  for (std::size_t i = 0; i < t.size(); ++i) mean += t.fractions[i] * t.points[i];
-  const Eigen::Vector3d shift = shape.centroid() - mean;
-  t.reach = 0;
-  for (auto& p : t.points) {
-    p += shift;
-    t.reach = std::max(t.reach, p.norm());
+  const std::size_t target = std::clamp<std::size_t>(samples_per_element * std::size_t(n), 200000, 4000000);
+  std::mt19937_64 rng(variant ^ kSalt);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const Eigen::Vector3d shift(unit(rng), unit(rng), unit(rng));
+  // Samples in the lattice's frame q (the body point is turn * q).
+  Eigen::AlignedBox3d frame_box;
+  for (int k = 0; k < 8; ++k)
+    frame_box.extend(Eigen::Vector3d(turn.transpose() * shape.bounds().corner(static_cast<Eigen::AlignedBox3d::CornerType>(k))));
+  const double h = std::cbrt(shape.volume() / double(target));
+  const Eigen::Vector3d lo = frame_box.min() - h * shift;
+  const Eigen::Vector3i count = ((frame_box.max() - lo) / h).array().ceil().cast<int>().max(1);
+  std::vector<Eigen::Vector3d> samples;
+  samples.reserve(target + target / 4);
+  TriangleMesh turned;
+  if (shape.kind() == Shape::Kind::mesh) {
+    turned = shape.mesh();
+    for (auto& v : turned.vertices) v = turn.transpose() * v;
   }
-  return t;
+  std::vector<std::pair<double, double>> col;
+  for (int j = 0; j < count[1]; ++j) {
+    const double y = lo[1] + (j + 0.5) * h;
+    for (int i = 0; i < count[0]; ++i) {
+      const double x = lo[0] + (i + 0.5) * h;
+      if (shape.kind() == Shape::Kind::mesh) {
+        mesh_column(turned, x, y, col);
+        for (const auto& [zlo, zhi] : col) {
+          const long k0 = long(std::ceil((zlo - lo[2]) / h - 0.5)), k1 = long(std::floor((zhi - lo[2]) / h - 0.5));
+          for (long k = k0; k <= k1; ++k) samples.emplace_back(x, y, lo[2] + (double(k) + 0.5) * h);
+        }
+        continue;
+      }
+      for (int k = 0; k < count[2]; ++k) {
+        const Eigen::Vector3d q(x, y, lo[2] + (k + 0.5) * h);
+        if (shape.contains(turn * q)) samples.push_back(q);
+      }
+    }
+  }
+  return partition_samples(shape, samples, n, &turn);
 }
 
 }  // namespace vfe::kernels

@@ -156,11 +156,11 @@ def test_errors_carry_the_status_name_and_message_and_leave_the_engine_usable():
         vfe.Engine.cartesian(origin=(0, 0, 0), spacing=(1, 1, 1), cells=(0, 1, 1))
     assert info.value.status == "VFE_ERROR_INVALID_ARGUMENT"
     e.configure(method="gaussian")
-    p = vfe.Engine.rectilinear([0, 1], [0, 1], [0, 1])
-    p.configure(method="gaussian")
-    with pytest.raises(vfe.Error) as info:
-        p.compute(np.array([[0.5, 0.5, 0.5]]), np.array([0.1]))
+    p = vfe.Engine.polymesh(DATA / "openfoam" / "box_uniform_10x10x30")
+    with pytest.raises(vfe.Error) as info:  # a method the mesh kind cannot run: refused at once
+        p.configure(method="trilinear")
     assert info.value.status == "VFE_ERROR_UNSUPPORTED"
+    assert p.option("method") == "pmm"
     assert vfe.status_name(2) == "VFE_ERROR_OUT_OF_DOMAIN"
 
 
