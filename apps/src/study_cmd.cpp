@@ -4,6 +4,7 @@
 #include "scene_particles.hpp"
 #include "report.hpp"
 #include "run.hpp"
+#include "scene_mesh.hpp"
 
 #include <vfe/engine.hpp>
 
@@ -153,9 +154,10 @@ double front_error_at_time(const Front& f, double t, std::string* note) {
 
 void mark_pareto(std::vector<StudyPoint>& points) {
   for (auto& p : points) {
-    p.pareto = true;
+    p.pareto = !p.skipped;
+    if (p.skipped) continue;
     for (const auto& q : points) {
-      if (&q == &p || q.mesh != p.mesh) continue;
+      if (&q == &p || q.mesh != p.mesh || q.skipped) continue;
       const double tp = p.time_median_ms, tq = q.time_median_ms, ep = error_of(p), eq = error_of(q);
       if (tq <= tp && eq <= ep && (tq < tp || eq < ep)) {
         p.pareto = false;
@@ -175,11 +177,11 @@ std::vector<StudyComparison> compare(const std::vector<StudyPoint>& points, cons
   for (const auto& mesh : meshes) {
     std::vector<std::pair<double, double>> base_points;
     for (const auto& p : points)
-      if (p.mesh == mesh && p.family == base) base_points.emplace_back(p.time_median_ms, error_of(p));
+      if (p.mesh == mesh && p.family == base && !p.skipped) base_points.emplace_back(p.time_median_ms, error_of(p));
     if (base_points.empty()) continue;
     const Front front = make_front(base_points);
     for (const auto& p : points) {
-      if (p.mesh != mesh || p.family == base) continue;
+      if (p.mesh != mesh || p.family == base || p.skipped) continue;
       StudyComparison c;
       c.mesh = mesh;
       c.chi = p.chi;
@@ -204,20 +206,36 @@ void print_mesh_tables(std::ostream& out, const std::string& scene, const std::s
                        const std::vector<StudyPoint>& pts, const std::vector<StudyComparison>& cmp) {
   const StudyPoint& first = pts.front();
   char title[512];
-  std::snprintf(title, sizeof title,
-                "\n%s / mesh %s: %lld x %lld x %lld cells of %.3g (chi = %.3g), %lld particles, %d thread(s), "
-                "median of %d",
-                scene.c_str(), first.mesh.c_str(), static_cast<long long>(first.grid[0]),
-                static_cast<long long>(first.grid[1]), static_cast<long long>(first.grid[2]), first.cell_size,
-                first.chi, static_cast<long long>(first.particles), first.threads, first.repeats);
+  if (first.mesh_type == "cartesian")
+    std::snprintf(title, sizeof title,
+                  "\n%s / mesh %s: %lld x %lld x %lld cells of %.3g (chi = %.3g), %lld particles, %d thread(s), "
+                  "median of %d",
+                  scene.c_str(), first.mesh.c_str(), static_cast<long long>(first.grid[0]),
+                  static_cast<long long>(first.grid[1]), static_cast<long long>(first.grid[2]), first.cell_size,
+                  first.chi, static_cast<long long>(first.particles), first.threads, first.repeats);
+  else
+    std::snprintf(title, sizeof title,
+                  "\n%s / mesh %s: %s of %lld cells, mean cube root of the cell volume %.3g (chi = %.3g: that "
+                  "over the mean particle diameter), %lld particles, %d thread(s), median of %d",
+                  scene.c_str(), first.mesh.c_str(), first.mesh_type == "polymesh" ? "polyMesh" : "rectilinear grid",
+                  static_cast<long long>(first.cells), first.cell_size, first.chi,
+                  static_cast<long long>(first.particles), first.threads, first.repeats);
   out << title << '\n';
   std::vector<std::vector<std::string>> rows = {
       {"family", "setting", "ms/compute", "theta", "max|err|", "L1", "grid", "pareto"}};
-  for (const auto& p : pts)
+  std::vector<std::string> skipped;
+  for (const auto& p : pts) {
+    if (p.skipped) {
+      rows.push_back({p.family, setting_text(p), "skipped", "-", "-", "-", "-", ""});
+      if (std::find(skipped.begin(), skipped.end(), p.note) == skipped.end()) skipped.push_back(p.note);
+      continue;
+    }
     rows.push_back({p.family + (p.is_reference ? " *" : ""), setting_text(p), fmt("%.3f", p.time_median_ms),
                     fmt("%.3e", p.accuracy.theta), fmt("%.3e", p.accuracy.max_error), fmt("%.3e", p.accuracy.l1),
                     grid_range(p.particle_grid_min, p.particle_grid_max), p.pareto ? "yes" : ""});
+  }
   print_columns(out, rows);
+  for (const auto& why : skipped) out << "skipped: " << why << '\n';
   if (cmp.empty()) return;
   out << "\n" << base << " against every other point (L1; log-log interpolation along " << base << "'s front):\n";
   rows = {{"family", "setting", "ms", "L1", base + " ms at L1", "speedup", base + " L1 at ms", "L1 ratio"}};
@@ -245,11 +263,7 @@ StudyResult run_study(const SceneConfig& cfg, const StudyOptions& opt) {
     if (!(x > 0)) throw ConfigError("chi must be > 0 (got " + std::to_string(x) + ")");
   if (chis.empty() && cfg.meshes.empty())
     throw ConfigError(source + ": the study has no grid; add chi: [0.75, 1, 2, 3] (or meshes)");
-  for (const MeshSpec& m : cfg.meshes)
-    if (m.type != "cartesian")
-      throw ConfigError(source + (m.line > 0 ? ":" + std::to_string(m.line) : std::string()) + ": mesh '" + m.name +
-                        "' is a " + m.type + " mesh; vfe study runs on Cartesian grids (chi or cartesian meshes): "
-                        "use vfe run for polyMesh scenes");
+  check_mesh_paths(cfg);
   const fs::path out_dir = opt.output.value_or(cfg.output);
 
   std::string global = scene_options(cfg, opt.threads, "", source);
@@ -303,25 +317,33 @@ StudyResult run_study(const SceneConfig& cfg, const StudyOptions& opt) {
     throw std::runtime_error(out_dir.string() + ": cannot create the output folder (" + ec.message() +
                              "); choose another with --output or 'output:'");
 
-  std::vector<MeshSpec> meshes = cfg.meshes;
-  for (double x : chis) meshes.push_back(chi_mesh(x, mean_d));
+  const std::vector<MeshSpec> meshes = scene_meshes(cfg, chis, mean_d);
 
   StudyResult result;
   result.output = out_dir;
   for (const MeshSpec& mesh : meshes) {
-    std::string note;
-    const vfe::CartesianGridSpec grid = resolve_grid(mesh, &frame.box, source, &note);
-    vfe::Engine engine(grid);
+    SceneMesh built = build_scene_mesh(mesh, &frame.box, source);
+    vfe::Engine& engine = *built.engine;
     register_shapes(cfg, engine);
-    const auto ncells = static_cast<std::size_t>(engine.cell_count());
-    std::vector<double> cell_volume(ncells), ref(ncells), solid(ncells);
-    engine.cell_volumes(cell_volume);
-    const double cell_size = std::cbrt(cell_volume.empty() ? 0.0 : cell_volume[0]);
+    const std::vector<double>& cell_volume = built.cell_volumes;
+    const std::size_t ncells = cell_volume.size();
+    std::vector<double> ref(ncells), solid(ncells);
+    // Cartesian cells are all alike; elsewhere the cell size is the mean cube root of the
+    // cell volumes (chi then says what a typical particle meets, not the largest cells).
+    const bool uniform = mesh.type == "cartesian";
+    const double cell_size =
+        uniform ? std::cbrt(cell_volume.empty() ? 0.0 : cell_volume[0]) : built.mean_cube_root_volume();
     const double chi = mean_d > 0 ? cell_size / mean_d : 0.0;
-    log->info("mesh '{}': {} x {} x {} cells of {:.4g} (chi = {:.3g})", mesh.name, grid.cells[0], grid.cells[1],
-              grid.cells[2], cell_size, chi);
-    engine.configure(reference_options);
-    engine.compute(particles, ref);
+    if (uniform)
+      log->info("mesh '{}': {} x {} x {} cells of {:.4g} (chi = {:.3g})", mesh.name, built.grid.cells[0],
+                built.grid.cells[1], built.grid.cells[2], cell_size, chi);
+    else
+      log->info("mesh '{}': {} of {} cells, mean cube root of the cell volume {:.4g} (chi = {:.3g})", mesh.name,
+                built.polymesh() ? "polyMesh" : "rectilinear grid", ncells, cell_size, chi);
+    with_mesh_context(mesh, "reference '" + cfg.reference.label + "'", [&] {
+      engine.configure(reference_options);
+      engine.compute(particles, ref);
+    });
     const double particle_volume = engine.last_report().particle_volume;
 
     // Warm-up and errors, one point after the other; then the timed computes in turns
@@ -329,11 +351,9 @@ StudyResult run_study(const SceneConfig& cfg, const StudyOptions& opt) {
     std::vector<StudyPoint> pts(jobs.size());
     for (std::size_t i = 0; i < jobs.size(); ++i) {
       const Job& job = jobs[i];
-      engine.configure(job.options);
-      engine.compute(particles, solid);
-      const vfe::Report rep = engine.last_report();
       StudyPoint& p = pts[i];
       p.mesh = mesh.name;
+      p.mesh_type = mesh.type;
       p.family = job.spec.label;
       p.method = job.spec.method;
       p.setting = job.setting;
@@ -341,12 +361,29 @@ StudyResult run_study(const SceneConfig& cfg, const StudyOptions& opt) {
       p.is_reference = job.options == reference_options;
       p.chi = chi;
       p.cell_size = cell_size;
-      p.grid = grid.cells;
+      p.grid = built.cells_per_axis;
       p.cells = static_cast<std::int64_t>(ncells);
       p.particles = frame.n;
       p.threads = threads_used;
       p.repeats = repeats;
+      try {
+        engine.configure(job.options);
+      } catch (const vfe::Error& e) {
+        // A method this mesh kind does not offer (trilinear on a polyMesh) is a skipped point.
+        if (e.status() != VFE_ERROR_UNSUPPORTED) throw;
+        p.skipped = true;
+        p.note = e.what();
+        p.time_median_ms = p.time_min_ms = kNaN;
+        p.accuracy.theta = p.accuracy.max_error = p.accuracy.l1 = p.accuracy.volume_error = kNaN;
+        log->warn("mesh '{}': {} {} skipped: {}", mesh.name, p.family, setting_text(p), e.what());
+        continue;
+      }
+      const auto t0 = Clock::now();
+      with_mesh_context(mesh, p.family + " " + setting_text(p), [&] { engine.compute(particles, solid); });
+      const double warm_up_ms = ms_since(t0);
+      const vfe::Report rep = engine.last_report();
       p.accuracy = vfe::compare_fields(solid, ref, cell_volume, particle_volume);
+      log->info("  {} {}: L1 {:.3e}, warm-up {:.1f} ms", p.family, setting_text(p), p.accuracy.l1, warm_up_ms);
       p.fast_path_particles = rep.fast_path_particles;
       p.sub_elements = rep.sub_elements;
       p.particle_grid_min = rep.particle_grid_min;
@@ -355,12 +392,14 @@ StudyResult run_study(const SceneConfig& cfg, const StudyOptions& opt) {
     std::vector<std::vector<double>> times(jobs.size());
     for (int r = 0; r < repeats; ++r)
       for (std::size_t i = 0; i < jobs.size(); ++i) {
+        if (pts[i].skipped) continue;
         engine.configure(jobs[i].options);
         const auto t0 = Clock::now();
         engine.compute(particles, solid);
         times[i].push_back(ms_since(t0));
       }
     for (std::size_t i = 0; i < jobs.size(); ++i) {
+      if (pts[i].skipped) continue;
       pts[i].time_median_ms = median(times[i]);
       pts[i].time_min_ms = *std::min_element(times[i].begin(), times[i].end());
     }
@@ -375,7 +414,7 @@ StudyResult run_study(const SceneConfig& cfg, const StudyOptions& opt) {
   std::ostringstream csv;
   csv << "scene,mesh,chi,cell_size,nx,ny,nz,cells,particles,threads,repeats,family,method,setting,options,"
          "reference,time_median_ms,time_min_ms,theta,max_error,l1,volume_error,cells_compared,fast_path_particles,"
-         "sub_elements,particle_grid_min,particle_grid_max,pareto\n";
+         "sub_elements,particle_grid_min,particle_grid_max,pareto,mesh_type,status,note\n";
   for (const auto& p : result.points)
     csv << csv_field(cfg.name) << ',' << csv_field(p.mesh) << ',' << num(p.chi, "nan") << ','
         << num(p.cell_size, "nan") << ',' << p.grid[0] << ',' << p.grid[1] << ',' << p.grid[2] << ',' << p.cells
@@ -385,7 +424,8 @@ StudyResult run_study(const SceneConfig& cfg, const StudyOptions& opt) {
         << ',' << num(p.accuracy.theta, "nan") << ',' << num(p.accuracy.max_error, "nan") << ','
         << num(p.accuracy.l1, "nan") << ',' << num(p.accuracy.volume_error, "nan") << ','
         << p.accuracy.cells_compared << ',' << p.fast_path_particles << ',' << p.sub_elements << ','
-        << p.particle_grid_min << ',' << p.particle_grid_max << ',' << (p.pareto ? 1 : 0) << '\n';
+        << p.particle_grid_min << ',' << p.particle_grid_max << ',' << (p.pareto ? 1 : 0) << ','
+        << csv_field(p.mesh_type) << ',' << (p.skipped ? "skipped" : "ok") << ',' << csv_field(p.note) << '\n';
   write_text_file(out_dir / "study.csv", csv.str());
 
   std::ostringstream ccsv;
@@ -420,7 +460,8 @@ StudyResult run_study(const SceneConfig& cfg, const StudyOptions& opt) {
        << ", \"volume_error\": " << num(p.accuracy.volume_error, "null")
        << ", \"fast_path_particles\": " << p.fast_path_particles << ", \"sub_elements\": " << p.sub_elements
        << ", \"particle_grid_min\": " << p.particle_grid_min << ", \"particle_grid_max\": " << p.particle_grid_max
-       << ", \"pareto\": " << (p.pareto ? "true" : "false") << "}";
+       << ", \"pareto\": " << (p.pareto ? "true" : "false") << ", \"mesh_type\": " << quoted(p.mesh_type)
+       << ", \"skipped\": " << (p.skipped ? "true" : "false") << ", \"note\": " << quoted(p.note) << "}";
   }
   js << "\n  ],\n  \"comparisons\": [";
   for (std::size_t i = 0; i < result.comparisons.size(); ++i) {
