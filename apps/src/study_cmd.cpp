@@ -5,6 +5,7 @@
 #include "report.hpp"
 #include "run.hpp"
 #include "scene_mesh.hpp"
+#include "timing.hpp"
 
 #include <vfe/engine.hpp>
 
@@ -25,20 +26,10 @@ namespace vfe::apps {
 namespace {
 
 namespace fs = std::filesystem;
-using Clock = std::chrono::steady_clock;
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 /// Errors below this count as 0 (the reference against itself is round-off).
 constexpr double kZeroError = 1e-12;
-
-double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
-
-double median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  const std::size_t m = v.size() / 2;
-  return v.size() % 2 ? v[m] : 0.5 * (v[m - 1] + v[m]);
-}
 
 double error_of(const StudyPoint& p) { return p.accuracy.l1 < kZeroError ? 0.0 : p.accuracy.l1; }
 
