@@ -29,6 +29,9 @@ struct StudyOptions {
   std::optional<int> repeats;                   ///< replaces the config's repeats
   std::optional<std::vector<double>> chi;       ///< replaces the config's chi list
   std::string base = "pmm";                     ///< the family compared with every other point
+  /// Only these families (method labels) of the config; empty = every one. An unknown
+  /// label is a ConfigError.
+  std::vector<std::string> families;
   std::shared_ptr<spdlog::logger> logger;       ///< progress; null = a quiet app logger
   std::ostream* table = nullptr;                ///< where the tables go; null = none
 };
