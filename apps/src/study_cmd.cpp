@@ -5,6 +5,7 @@
 #include "report.hpp"
 #include "run.hpp"
 #include "scene_mesh.hpp"
+#include "text_format.hpp"
 #include "timing.hpp"
 
 #include <vfe/engine.hpp>
@@ -32,56 +33,6 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kZeroError = 1e-12;
 
 double error_of(const StudyPoint& p) { return p.accuracy.l1 < kZeroError ? 0.0 : p.accuracy.l1; }
-
-std::string fmt(const char* f, double v) {
-  if (std::isnan(v)) return "-";
-  char buf[64];
-  std::snprintf(buf, sizeof buf, f, v);
-  return buf;
-}
-
-/// Shortest text that reads back to the same double; NaN as `nan_text`.
-std::string num(double v, const char* nan_text) {
-  if (!std::isfinite(v)) return nan_text;
-  char buf[64];
-  for (int p = 6; p <= 17; ++p) {
-    std::snprintf(buf, sizeof buf, "%.*g", p, v);
-    if (std::strtod(buf, nullptr) == v) break;
-  }
-  return buf;
-}
-
-std::string quoted(const std::string& s) {
-  std::string o = "\"";
-  for (char c : s) {
-    if (c == '"' || c == '\\') o += '\\';
-    o += c;
-  }
-  return o + "\"";
-}
-
-/// Prints rows of cells as aligned columns (first column left-aligned).
-void print_columns(std::ostream& out, const std::vector<std::vector<std::string>>& rows) {
-  if (rows.empty()) return;
-  std::vector<std::size_t> w(rows[0].size(), 0);
-  for (const auto& r : rows)
-    for (std::size_t c = 0; c < r.size(); ++c) w[c] = std::max(w[c], r[c].size());
-  for (std::size_t i = 0; i < rows.size(); ++i) {
-    std::string line;
-    for (std::size_t c = 0; c < rows[i].size(); ++c) {
-      const std::string pad(w[c] - rows[i][c].size(), ' ');
-      if (c) line += "  ";
-      line += c < 2 ? rows[i][c] + pad : pad + rows[i][c];
-    }
-    while (!line.empty() && line.back() == ' ') line.pop_back();
-    out << line << '\n';
-    if (i == 0) {
-      std::size_t total = 2 * (w.size() - 1);
-      for (auto x : w) total += x;
-      out << std::string(total, '-') << '\n';
-    }
-  }
-}
 
 struct Job {
   MethodSpec spec;      ///< the family entry
@@ -221,22 +172,22 @@ void print_mesh_tables(std::ostream& out, const std::string& scene, const std::s
       if (std::find(skipped.begin(), skipped.end(), p.note) == skipped.end()) skipped.push_back(p.note);
       continue;
     }
-    rows.push_back({p.family + (p.is_reference ? " *" : ""), setting_text(p), fmt("%.3f", p.time_median_ms),
-                    fmt("%.3e", p.accuracy.theta), fmt("%.3e", p.accuracy.max_error), fmt("%.3e", p.accuracy.l1),
+    rows.push_back({p.family + (p.is_reference ? " *" : ""), setting_text(p), table_number("%.3f", p.time_median_ms),
+                    table_number("%.3e", p.accuracy.theta), table_number("%.3e", p.accuracy.max_error), table_number("%.3e", p.accuracy.l1),
                     grid_range(p.particle_grid_min, p.particle_grid_max), p.pareto ? "yes" : ""});
   }
-  print_columns(out, rows);
+  print_columns(out, rows, 2);
   for (const auto& why : skipped) out << "skipped: " << why << '\n';
   if (cmp.empty()) return;
   out << "\n" << base << " against every other point (L1; log-log interpolation along " << base << "'s front):\n";
   rows = {{"family", "setting", "ms", "L1", base + " ms at L1", "speedup", base + " L1 at ms", "L1 ratio"}};
   for (const auto& c : cmp)
-    rows.push_back({c.family, c.setting.empty() ? "-" : c.setting, fmt("%.3f", c.time_ms), fmt("%.3e", c.l1),
-                    fmt("%.3f", c.base_time_at_error),
-                    c.speedup_note == "n/a" ? "n/a" : c.speedup_note + fmt("%.2f", c.speedup),
-                    fmt("%.3e", c.base_error_at_time),
-                    c.gain_note == "n/a" ? "n/a" : c.gain_note + fmt("%.2f", c.accuracy_gain)});
-  print_columns(out, rows);
+    rows.push_back({c.family, c.setting.empty() ? "-" : c.setting, table_number("%.3f", c.time_ms), table_number("%.3e", c.l1),
+                    table_number("%.3f", c.base_time_at_error),
+                    c.speedup_note == "n/a" ? "n/a" : c.speedup_note + table_number("%.2f", c.speedup),
+                    table_number("%.3e", c.base_error_at_time),
+                    c.gain_note == "n/a" ? "n/a" : c.gain_note + table_number("%.2f", c.accuracy_gain)});
+  print_columns(out, rows, 2);
   out << "(speedup = ms / " << base << " ms at the same L1; L1 ratio = L1 / " << base
       << " L1 at the same ms; '>=' a bound: " << base << "'s settings go no further; * reference)\n";
   out.flush();
@@ -415,13 +366,13 @@ StudyResult run_study(const SceneConfig& cfg, const StudyOptions& opt) {
          "reference,time_median_ms,time_min_ms,theta,max_error,l1,volume_error,cells_compared,fast_path_particles,"
          "sub_elements,particle_grid_min,particle_grid_max,pareto,mesh_type,status,note\n";
   for (const auto& p : result.points)
-    csv << csv_field(cfg.name) << ',' << csv_field(p.mesh) << ',' << num(p.chi, "nan") << ','
-        << num(p.cell_size, "nan") << ',' << p.grid[0] << ',' << p.grid[1] << ',' << p.grid[2] << ',' << p.cells
+    csv << csv_field(cfg.name) << ',' << csv_field(p.mesh) << ',' << csv_number(p.chi) << ','
+        << csv_number(p.cell_size) << ',' << p.grid[0] << ',' << p.grid[1] << ',' << p.grid[2] << ',' << p.cells
         << ',' << p.particles << ',' << p.threads << ',' << p.repeats << ',' << csv_field(p.family) << ','
         << csv_field(p.method) << ',' << csv_field(p.setting) << ',' << csv_field(p.options) << ','
-        << (p.is_reference ? 1 : 0) << ',' << num(p.time_median_ms, "nan") << ',' << num(p.time_min_ms, "nan")
-        << ',' << num(p.accuracy.theta, "nan") << ',' << num(p.accuracy.max_error, "nan") << ','
-        << num(p.accuracy.l1, "nan") << ',' << num(p.accuracy.volume_error, "nan") << ','
+        << (p.is_reference ? 1 : 0) << ',' << csv_number(p.time_median_ms) << ',' << csv_number(p.time_min_ms)
+        << ',' << csv_number(p.accuracy.theta) << ',' << csv_number(p.accuracy.max_error) << ','
+        << csv_number(p.accuracy.l1) << ',' << csv_number(p.accuracy.volume_error) << ','
         << p.accuracy.cells_compared << ',' << p.fast_path_particles << ',' << p.sub_elements << ','
         << p.particle_grid_min << ',' << p.particle_grid_max << ',' << (p.pareto ? 1 : 0) << ','
         << csv_field(p.mesh_type) << ',' << (p.skipped ? "skipped" : "ok") << ',' << csv_field(p.note) << '\n';
@@ -431,47 +382,47 @@ StudyResult run_study(const SceneConfig& cfg, const StudyOptions& opt) {
   ccsv << "scene,mesh,chi,base,family,setting,time_ms,l1,base_time_at_error,speedup,speedup_note,"
           "base_error_at_time,accuracy_gain,gain_note\n";
   for (const auto& c : result.comparisons)
-    ccsv << csv_field(cfg.name) << ',' << csv_field(c.mesh) << ',' << num(c.chi, "nan") << ','
+    ccsv << csv_field(cfg.name) << ',' << csv_field(c.mesh) << ',' << csv_number(c.chi) << ','
          << csv_field(opt.base) << ',' << csv_field(c.family) << ',' << csv_field(c.setting) << ','
-         << num(c.time_ms, "nan") << ',' << num(c.l1, "nan") << ',' << num(c.base_time_at_error, "nan") << ','
-         << num(c.speedup, "nan") << ',' << csv_field(c.speedup_note) << ',' << num(c.base_error_at_time, "nan")
-         << ',' << num(c.accuracy_gain, "nan") << ',' << csv_field(c.gain_note) << '\n';
+         << csv_number(c.time_ms) << ',' << csv_number(c.l1) << ',' << csv_number(c.base_time_at_error) << ','
+         << csv_number(c.speedup) << ',' << csv_field(c.speedup_note) << ',' << csv_number(c.base_error_at_time)
+         << ',' << csv_number(c.accuracy_gain) << ',' << csv_field(c.gain_note) << '\n';
   write_text_file(out_dir / "comparisons.csv", ccsv.str());
 
   std::ostringstream js;
-  js << "{\n  \"scene\": " << quoted(cfg.name) << ",\n  \"vfe_version\": " << quoted(vfe_version())
-     << ",\n  \"particles_file\": " << quoted(frame.source_name)
+  js << "{\n  \"scene\": " << json_string(cfg.name) << ",\n  \"vfe_version\": " << json_string(vfe_version())
+     << ",\n  \"particles_file\": " << json_string(frame.source_name)
      << ",\n  \"timestep\": " << frame.timestep << ",\n  \"particles\": " << frame.n
-     << ",\n  \"mean_diameter\": " << num(mean_d, "null") << ",\n  \"threads\": " << threads_used
-     << ",\n  \"repeats\": " << repeats << ",\n  \"options\": " << quoted(global)
-     << ",\n  \"reference\": " << quoted(cfg.reference.label) << ",\n  \"base\": " << quoted(opt.base)
+     << ",\n  \"mean_diameter\": " << json_number(mean_d) << ",\n  \"threads\": " << threads_used
+     << ",\n  \"repeats\": " << repeats << ",\n  \"options\": " << json_string(global)
+     << ",\n  \"reference\": " << json_string(cfg.reference.label) << ",\n  \"base\": " << json_string(opt.base)
      << ",\n  \"error_measure\": \"l1\",\n  \"points\": [";
   for (std::size_t i = 0; i < result.points.size(); ++i) {
     const auto& p = result.points[i];
-    js << (i ? ",\n" : "\n") << "    {\"mesh\": " << quoted(p.mesh) << ", \"chi\": " << num(p.chi, "null")
-       << ", \"cell_size\": " << num(p.cell_size, "null") << ", \"grid\": [" << p.grid[0] << ", " << p.grid[1]
-       << ", " << p.grid[2] << "], \"family\": " << quoted(p.family) << ", \"method\": " << quoted(p.method)
-       << ", \"setting\": " << quoted(p.setting) << ", \"options\": " << quoted(p.options)
+    js << (i ? ",\n" : "\n") << "    {\"mesh\": " << json_string(p.mesh) << ", \"chi\": " << json_number(p.chi)
+       << ", \"cell_size\": " << json_number(p.cell_size) << ", \"grid\": [" << p.grid[0] << ", " << p.grid[1]
+       << ", " << p.grid[2] << "], \"family\": " << json_string(p.family) << ", \"method\": " << json_string(p.method)
+       << ", \"setting\": " << json_string(p.setting) << ", \"options\": " << json_string(p.options)
        << ", \"reference\": " << (p.is_reference ? "true" : "false")
-       << ", \"time_median_ms\": " << num(p.time_median_ms, "null")
-       << ", \"time_min_ms\": " << num(p.time_min_ms, "null") << ", \"theta\": " << num(p.accuracy.theta, "null")
-       << ", \"max_error\": " << num(p.accuracy.max_error, "null") << ", \"l1\": " << num(p.accuracy.l1, "null")
-       << ", \"volume_error\": " << num(p.accuracy.volume_error, "null")
+       << ", \"time_median_ms\": " << json_number(p.time_median_ms)
+       << ", \"time_min_ms\": " << json_number(p.time_min_ms) << ", \"theta\": " << json_number(p.accuracy.theta)
+       << ", \"max_error\": " << json_number(p.accuracy.max_error) << ", \"l1\": " << json_number(p.accuracy.l1)
+       << ", \"volume_error\": " << json_number(p.accuracy.volume_error)
        << ", \"fast_path_particles\": " << p.fast_path_particles << ", \"sub_elements\": " << p.sub_elements
        << ", \"particle_grid_min\": " << p.particle_grid_min << ", \"particle_grid_max\": " << p.particle_grid_max
-       << ", \"pareto\": " << (p.pareto ? "true" : "false") << ", \"mesh_type\": " << quoted(p.mesh_type)
-       << ", \"skipped\": " << (p.skipped ? "true" : "false") << ", \"note\": " << quoted(p.note) << "}";
+       << ", \"pareto\": " << (p.pareto ? "true" : "false") << ", \"mesh_type\": " << json_string(p.mesh_type)
+       << ", \"skipped\": " << (p.skipped ? "true" : "false") << ", \"note\": " << json_string(p.note) << "}";
   }
   js << "\n  ],\n  \"comparisons\": [";
   for (std::size_t i = 0; i < result.comparisons.size(); ++i) {
     const auto& c = result.comparisons[i];
-    js << (i ? ",\n" : "\n") << "    {\"mesh\": " << quoted(c.mesh) << ", \"chi\": " << num(c.chi, "null")
-       << ", \"family\": " << quoted(c.family) << ", \"setting\": " << quoted(c.setting)
-       << ", \"time_ms\": " << num(c.time_ms, "null") << ", \"l1\": " << num(c.l1, "null")
-       << ", \"base_time_at_error\": " << num(c.base_time_at_error, "null")
-       << ", \"speedup\": " << num(c.speedup, "null") << ", \"speedup_note\": " << quoted(c.speedup_note)
-       << ", \"base_error_at_time\": " << num(c.base_error_at_time, "null")
-       << ", \"accuracy_gain\": " << num(c.accuracy_gain, "null") << ", \"gain_note\": " << quoted(c.gain_note)
+    js << (i ? ",\n" : "\n") << "    {\"mesh\": " << json_string(c.mesh) << ", \"chi\": " << json_number(c.chi)
+       << ", \"family\": " << json_string(c.family) << ", \"setting\": " << json_string(c.setting)
+       << ", \"time_ms\": " << json_number(c.time_ms) << ", \"l1\": " << json_number(c.l1)
+       << ", \"base_time_at_error\": " << json_number(c.base_time_at_error)
+       << ", \"speedup\": " << json_number(c.speedup) << ", \"speedup_note\": " << json_string(c.speedup_note)
+       << ", \"base_error_at_time\": " << json_number(c.base_error_at_time)
+       << ", \"accuracy_gain\": " << json_number(c.accuracy_gain) << ", \"gain_note\": " << json_string(c.gain_note)
        << "}";
   }
   js << "\n  ]\n}\n";
