@@ -234,9 +234,11 @@ def main():
             ax.legend(fontsize=7.5, loc="upper right", ncol=2)
     for idx in range(n, nrows * cols):
         axes[idx // cols][idx % cols].axis("off")
-    fig.suptitle("run time against error (lower left is better); circled: Pareto front; labels: setting "
-                 "(particle grid, \u03c3 or \u03b3 in particle diameters)", fontsize=10)
-    fig.tight_layout(rect=(0, 0, 1, 0.97))
+    # One panel is narrow: the title takes two lines there.
+    fig.suptitle("run time against error (lower left is better); circled: Pareto front;" + ("\n" if cols == 1 else " ")
+                 + "labels: setting (particle grid, \u03c3 or \u03b3 in particle diameters)", fontsize=10)
+    top = 0.93 if cols == 1 else 0.97
+    fig.tight_layout(rect=(0, 0, 1, top))
     fig.savefig(out, dpi=130)
     print(f"wrote {out}")
     if args.markdown:
