@@ -1,4 +1,5 @@
 #include "bench_cmd.hpp"
+#include "engine_methods.hpp"
 #include "random.hpp"
 #include "report.hpp"
 #include "timing.hpp"
@@ -503,7 +504,10 @@ BenchOutcome run_bench(const BenchCommand& c) {
     const unsigned hc = std::thread::hardware_concurrency();
     threads.push_back(t > 0 ? t : (hc ? static_cast<int>(hc) : 1));
   }
-  if (c.methods.empty()) bad_argument("--method: no value; give methods such as direct,pmm,exact");
+  if (c.methods.empty()) bad_argument("--method: no value; give methods such as direct,pmm,exact (or all)");
+  // "all": every method the engine has, in its order.
+  std::vector<std::string> methods = c.methods;
+  if (methods == std::vector<std::string>{"all"}) methods = engine_method_names();
   if (c.repeats < 1) bad_argument("--repeats: bad value '" + std::to_string(c.repeats) + "'; expected a count >= 1");
   check_free_options(c.options);
 
@@ -511,7 +515,7 @@ BenchOutcome run_bench(const BenchCommand& c) {
   vfe::Engine probe(vfe::CartesianGridSpec{});
   configure_or_throw(probe, c.options, "--options");
   configure_or_throw(probe, "particle_grid=" + c.particle_grid, "--particle-grid");
-  for (const std::string& m : c.methods) configure_or_throw(probe, "method=" + m, "--method");
+  for (const std::string& m : methods) configure_or_throw(probe, "method=" + m, "--method");
   probe.configure("method=pmm");  // the limits use pmm's template sizes
 
   std::error_code ec;
@@ -523,7 +527,7 @@ BenchOutcome run_bench(const BenchCommand& c) {
   BenchOutcome out;
   out.output = c.output;
   if (c.table) print_header(*c.table);
-  const std::size_t total_rows = counts.size() * c.chi.size() * threads.size() * c.methods.size();
+  const std::size_t total_rows = counts.size() * c.chi.size() * threads.size() * methods.size();
   for (const std::int64_t n : counts) {
     const auto t_scene = Clock::now();
     const BenchScene scene = make_bench_scene(c.scene, c.dispersity, n, c.seed);
@@ -578,7 +582,7 @@ BenchOutcome run_bench(const BenchCommand& c) {
           }
         }
 
-        for (const std::string& method : c.methods) {
+        for (const std::string& method : methods) {
           BenchRow row;
           return_free_memory();
           const std::int64_t before_engine = resident_bytes();

@@ -146,7 +146,7 @@ int main(int argc, char** argv) {
   bench->add_option("--chi", bench_cmd.chi, "Cell size / mean diameter, a list (default 2; e.g. 0.5,1,2,4)")
       ->delimiter(',');
   bench->add_option("-t,--threads", bench_cmd.threads, "Thread counts, a list (default 1,2; 0 = all)")->delimiter(',');
-  bench->add_option("--method", bench_cmd.methods, "Engine methods, a list (default direct,pmm,exact)")->delimiter(',');
+  bench->add_option("--method", bench_cmd.methods, "Engine methods, a list (default direct,pmm,exact), or all")->delimiter(',');
   bench->add_option("--particle-grid", bench_cmd.particle_grid, "pmm's particle_grid: auto or a count")
       ->capture_default_str();
   bench->add_option("--options", bench_cmd.options, "More engine options, \"key=value ...\" (e.g. orientation=none)");
