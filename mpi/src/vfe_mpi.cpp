@@ -69,11 +69,15 @@ void rebuild(vfe_mpi_engine& e, const Index3& ghost) {
   e.extended.assign(static_cast<std::size_t>(ext.count()), 0.0);
 }
 
-// The first failing rank's status and message, on every rank (one allreduce when all
-// succeeded). Collective.
-vfe_status agree(vfe_mpi_engine& e, vfe_status mine, const std::string& message) {
-  int key = mine == VFE_OK ? e.size : e.rank, first = e.size;
-  MPI_Allreduce(&key, &first, 1, MPI_INT, MPI_MIN, e.comm);
+// The first failing rank's status and message, on every rank: one allreduce when all
+// succeeded, which also takes the maximum over ranks of `maxima` (in place). Collective.
+vfe_status agree(vfe_mpi_engine& e, vfe_status mine, const std::string& message, std::span<double> maxima = {}) {
+  std::vector<double> in(1 + maxima.size()), out(in.size());
+  in[0] = -double(mine == VFE_OK ? e.size : e.rank);  // the largest is the first failing rank
+  std::copy(maxima.begin(), maxima.end(), in.begin() + 1);
+  MPI_Allreduce(in.data(), out.data(), int(in.size()), MPI_DOUBLE, MPI_MAX, e.comm);
+  std::copy(out.begin() + 1, out.end(), maxima.begin());
+  const int first = int(-out[0]);
   if (first == e.size) return VFE_OK;
   int status = mine;
   MPI_Bcast(&status, 1, MPI_INT, first, e.comm);
@@ -86,44 +90,40 @@ vfe_status agree(vfe_mpi_engine& e, vfe_status mine, const std::string& message)
   return static_cast<vfe_status>(status);
 }
 
-// Runs a rank's part of a collective call and agrees on its outcome.
+// A rank's part of a collective call: its status and message, exceptions caught.
 template <class F>
-vfe_status collective(vfe_mpi_engine& e, F&& f) {
-  vfe_status mine = VFE_OK;
-  std::string message;
+vfe_status attempt(F&& f, std::string& message) {
   try {
     f();
+    return VFE_OK;
   } catch (const Error& err) {
-    mine = err.status();
     message = err.what();
+    return err.status();
   } catch (const std::bad_alloc&) {
-    mine = VFE_ERROR_OUT_OF_MEMORY;
     message = "out of memory";
+    return VFE_ERROR_OUT_OF_MEMORY;
   } catch (const std::exception& err) {
-    mine = VFE_ERROR_INTERNAL;
     message = err.what();
+    return VFE_ERROR_INTERNAL;
   }
-  return agree(e, mine, message);
+}
+
+// Runs a rank's part of a collective call and agrees on its outcome.
+template <class F>
+vfe_status collective(vfe_mpi_engine& e, F&& f, std::span<double> maxima = {}) {
+  std::string message;
+  const vfe_status mine = attempt(f, message);
+  return agree(e, mine, message, maxima);
 }
 
 // Runs a rank-local call: errors go to e.error and the status.
 template <class F>
 vfe_status local_call(const vfe_mpi_engine* e, F&& f) {
   if (!e) return VFE_ERROR_INVALID_ARGUMENT;
-  auto& m = const_cast<vfe_mpi_engine&>(*e);  // the message is the handle's only mutable state here
-  try {
-    f();
-    return VFE_OK;
-  } catch (const Error& err) {
-    m.error = err.what();
-    return err.status();
-  } catch (const std::bad_alloc&) {
-    m.error = "out of memory";
-    return VFE_ERROR_OUT_OF_MEMORY;
-  } catch (const std::exception& err) {
-    m.error = err.what();
-    return VFE_ERROR_INTERNAL;
-  }
+  std::string message;
+  const vfe_status s = attempt(f, message);
+  if (s != VFE_OK) const_cast<vfe_mpi_engine&>(*e).error = message;  // the message is the handle's only mutable state
+  return s;
 }
 
 void require(bool ok, const std::string& message) {
@@ -273,8 +273,10 @@ double check_particles(const vfe_mpi_engine& e, const vfe_particles& p, std::vec
   return max_radius;
 }
 
-// The local report summed over ranks (grid sizes: min and max over ranks with particles).
-void gather_report(vfe_mpi_engine& e) {
+// The report over all ranks: the local reports' sums, particle grid sizes over the ranks
+// with particles (grid_extremes: max and -min, already reduced), deposited and clipped volume
+// of the owned fields. Returns how many ranks failed the halo sum (in the same allreduce).
+int gather_report(vfe_mpi_engine& e, bool halo_failed, const double grid_extremes[2]) {
   const vfe_report r = e.local->last_report();
   const double alpha_min = std::stod(e.local->option("alpha_min"));
   double deposited = 0, clipped = 0;
@@ -282,81 +284,99 @@ void gather_report(vfe_mpi_engine& e) {
     deposited += v;
     if (alpha_min > 0) clipped += std::max(0.0, v - (1.0 - alpha_min) * e.cell_volume());
   }
-  double sums[7] = {double(r.particles),   double(r.fast_path_particles), double(r.sub_elements), r.particle_volume,
-                    deposited,             r.dropped_volume,              double(r.outside_particles)};
-  double totals[7];
-  MPI_Allreduce(sums, totals, 7, MPI_DOUBLE, MPI_SUM, e.comm);
-  double sum_clipped = 0;
-  MPI_Allreduce(&clipped, &sum_clipped, 1, MPI_DOUBLE, MPI_SUM, e.comm);
-  const bool any = r.particles > 0;
-  double extremes[2] = {any ? double(r.particle_grid_max) : 0.0,
-                        any ? -double(r.particle_grid_min) : -std::numeric_limits<double>::max()};
-  double global[2];
-  MPI_Allreduce(extremes, global, 2, MPI_DOUBLE, MPI_MAX, e.comm);
+  double sums[9] = {double(r.particles), double(r.fast_path_particles), double(r.sub_elements),
+                    r.particle_volume,   deposited,                      r.dropped_volume,
+                    double(r.outside_particles), clipped,               halo_failed ? 1.0 : 0.0};
+  double t[9];
+  MPI_Allreduce(sums, t, 9, MPI_DOUBLE, MPI_SUM, e.comm);
   vfe_report g{};
-  g.particles = static_cast<std::int64_t>(totals[0]);
-  g.fast_path_particles = static_cast<std::int64_t>(totals[1]);
-  g.sub_elements = static_cast<std::int64_t>(totals[2]);
-  g.particle_volume = totals[3];
-  g.deposited_volume = totals[4];
-  g.dropped_volume = totals[5];
-  g.outside_particles = static_cast<std::int64_t>(totals[6]);
-  g.particle_grid_max = static_cast<std::int64_t>(global[0]);
-  g.particle_grid_min = g.particles > 0 ? static_cast<std::int64_t>(-global[1]) : 0;
-  g.clipped_volume = sum_clipped;
+  g.particles = static_cast<std::int64_t>(t[0]);
+  g.fast_path_particles = static_cast<std::int64_t>(t[1]);
+  g.sub_elements = static_cast<std::int64_t>(t[2]);
+  g.particle_volume = t[3];
+  g.deposited_volume = t[4];
+  g.dropped_volume = t[5];
+  g.outside_particles = static_cast<std::int64_t>(t[6]);
+  g.clipped_volume = t[7];
+  g.particle_grid_max = g.particles > 0 ? static_cast<std::int64_t>(grid_extremes[0]) : 0;
+  g.particle_grid_min = g.particles > 0 ? static_cast<std::int64_t>(-grid_extremes[1]) : 0;
   e.report = g;
+  return static_cast<int>(t[8]);
 }
 
+// One compute: three small allreduces (contract and largest radius; the local computes'
+// outcome and grid sizes; the report) and one neighbour exchange, plus a rebuild of the
+// ghost layer when a footprint needs a wider one.
 vfe_status compute(vfe_mpi_engine* e, const vfe_particles* p, double* out) {
   if (!e) return VFE_ERROR_INVALID_ARGUMENT;
   std::vector<double> wrapped;
   double max_radius = 0;
-  vfe_status s = collective(*e, [&] {
-    require(p != nullptr, "vfe_mpi_compute_particles: particles is NULL");
-    require(p->n >= 0, "vfe_mpi_compute: n must be >= 0");
-    require(out != nullptr || e->owned_cells() == 0, "vfe_mpi_compute: solid_volume is NULL; pass owned-cell storage");
-    require(p->n == 0 || (p->centres && p->radii), "vfe_mpi_compute: centres and radii must not be NULL");
-    if (p->shape_ids)
-      throw Error(VFE_ERROR_UNSUPPORTED, "vfe_mpi computes spheres only: pass shape_ids = NULL");
-    if (!p->ids && p->n > 0 && e->local->option("method") == "pmm" && e->local->option("orientation") == "random")
-      throw Error(VFE_ERROR_INVALID_ARGUMENT,
-                  "method=pmm with orientation=random rotates each particle by its id, which must not depend on "
-                  "the rank: pass the particle ids (vfe_particles.ids, vfe_mpi_compute_particles)");
-    max_radius = check_particles(*e, *p, wrapped);
-  });
+  vfe_status s = collective(
+      *e,
+      [&] {
+        require(p != nullptr, "vfe_mpi_compute_particles: particles is NULL");
+        require(p->n >= 0, "vfe_mpi_compute: n must be >= 0");
+        require(out != nullptr || e->owned_cells() == 0, "vfe_mpi_compute: solid_volume is NULL; pass owned-cell storage");
+        require(p->n == 0 || (p->centres && p->radii), "vfe_mpi_compute: centres and radii must not be NULL");
+        if (p->shape_ids) throw Error(VFE_ERROR_UNSUPPORTED, "vfe_mpi computes spheres only: pass shape_ids = NULL");
+        if (!p->ids && p->n > 0 && e->local->option("method") == "pmm" && e->local->option("orientation") == "random")
+          throw Error(VFE_ERROR_INVALID_ARGUMENT,
+                      "method=pmm with orientation=random rotates each particle by its id, which must not depend on "
+                      "the rank: pass the particle ids (vfe_particles.ids, vfe_mpi_compute_particles)");
+        max_radius = check_particles(*e, *p, wrapped);
+      },
+      {&max_radius, 1});
   if (s != VFE_OK) return s;
-  s = collective(*e, [&] {
-    double global_radius = 0;
-    MPI_Allreduce(&max_radius, &global_radius, 1, MPI_DOUBLE, MPI_MAX, e->comm);
-    const Index3 need = ghost_needed(*e, global_radius);
-    if (need[0] > e->dec.ghost[0] || need[1] > e->dec.ghost[1] || need[2] > e->dec.ghost[2])
+  // Every rank has the same largest radius and options, so all decide alike.
+  Index3 need{};
+  s = local_call(e, [&] { need = ghost_needed(*e, max_radius); });
+  if (s != VFE_OK) return s;
+  if (need[0] > e->dec.ghost[0] || need[1] > e->dec.ghost[1] || need[2] > e->dec.ghost[2]) {
+    s = collective(*e, [&] {
       rebuild(*e, {std::max(need[0], e->dec.ghost[0]), std::max(need[1], e->dec.ghost[1]),
                    std::max(need[2], e->dec.ghost[2])});
-  });
+    });
+    if (s != VFE_OK) return s;
+  }
+  double grid_extremes[2] = {0, -std::numeric_limits<double>::max()};
+  s = collective(
+      *e,
+      [&] {
+        vfe_particles local = *p;
+        if (!wrapped.empty()) {
+          local.centres = wrapped.data();
+          local.centres_stride = 0;
+        }
+        e->local->compute(local, e->extended);
+        if (edge_layer_volume(*e) != 0)
+          throw Error(VFE_ERROR_INTERNAL,
+                      "a deposit reached the outer ghost layer, so the ghost layer was narrower than a footprint: "
+                      "please report this with the options used");
+        const vfe_report& r = e->local->last_report();
+        if (r.particles > 0) {
+          grid_extremes[0] = double(r.particle_grid_max);
+          grid_extremes[1] = -double(r.particle_grid_min);
+        }
+      },
+      grid_extremes);
   if (s != VFE_OK) return s;
-  s = collective(*e, [&] {
-    vfe_particles local = *p;
-    if (!wrapped.empty()) {
-      local.centres = wrapped.data();
-      local.centres_stride = 0;
-    }
-    e->local->compute(local, e->extended);
-    if (edge_layer_volume(*e) != 0)
-      throw Error(VFE_ERROR_INTERNAL,
-                  "a deposit reached the outer ghost layer, so the ghost layer was narrower than a footprint: "
-                  "please report this with the options used");
-  });
-  if (s != VFE_OK) return s;
-  s = collective(*e, [&] {
-    std::vector<double> owned(static_cast<std::size_t>(e->owned_cells()));
-    copy_owned(*e, true, e->extended.data(), owned.data(), 1);
-    e->halo.reverse_sum(e->extended, owned, 1);
-    e->solid = std::move(owned);
-    e->have_field = true;
-    gather_report(*e);
-  });
-  if (s == VFE_OK && e->owned_cells() > 0) std::copy(e->solid.begin(), e->solid.end(), out);
-  return s;
+  std::string message;
+  const vfe_status halo = attempt(
+      [&] {
+        std::vector<double> owned(static_cast<std::size_t>(e->owned_cells()));
+        copy_owned(*e, true, e->extended.data(), owned.data(), 1);
+        e->halo.reverse_sum(e->extended, owned, 1);
+        e->solid = std::move(owned);
+      },
+      message);
+  if (gather_report(*e, halo != VFE_OK, grid_extremes) > 0) {
+    e->have_field = false;
+    e->error = halo != VFE_OK ? message : "the halo sum failed on another rank";
+    return VFE_ERROR_INTERNAL;
+  }
+  e->have_field = true;
+  if (e->owned_cells() > 0) std::copy(e->solid.begin(), e->solid.end(), out);
+  return VFE_OK;
 }
 
 void check_blocks(const vfe_mpi_engine& e) {
