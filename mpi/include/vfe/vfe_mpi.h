@@ -94,7 +94,10 @@ VFE_API vfe_status vfe_mpi_last_report(const vfe_mpi_engine* e, vfe_report* out)
 /** A fact by name: the vfe_report fields (over all ranks) and, for this rank, "ghost_width"
  *  (cells, largest over axes), "neighbours" (ranks exchanged with, itself included when it
  *  is its own periodic neighbour), "local_cells" (owned + ghost), "halo_values" (doubles
- *  this rank sends in one reverse halo sum), "halo_bytes" (bytes sent in it). */
+ *  this rank sends in one reverse halo sum), "halo_bytes" (bytes sent in it), and of the last
+ *  compute on this rank "local_seconds" (wall time of the local engine's compute),
+ *  "local_cpu_seconds" (its CPU time on the calling thread; with threads=1 its whole cost)
+ *  and "exchange_seconds" (wall time of the halo sum and the report's allreduce). */
 VFE_API vfe_status vfe_mpi_last_report_value(const vfe_mpi_engine* e, const char* key, double* out);
 
 /** Message of the last failure on e ("" if none); for NULL, of the last failed creation. */
