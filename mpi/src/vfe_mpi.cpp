@@ -181,7 +181,6 @@ Index3 ghost_needed(const vfe_mpi_engine& e, double max_radius) {
     extra_cells = 1;  // the 8 cells whose centres surround the particle's centre
   else
     throw Error(VFE_ERROR_UNSUPPORTED, "method " + method + " has no known footprint in vfe_mpi");
-  reach += std::stod(e.local->option("smoothing_length"));
   Index3 g{};
   for (int d = 0; d < 3; ++d)
     g[d] = static_cast<std::int64_t>(std::ceil(reach / e.spacing[d])) + static_cast<std::int64_t>(extra_cells) + 1;
@@ -525,6 +524,12 @@ vfe_status vfe_mpi_configure(vfe_mpi_engine* e, const char* options) {
     vfe::Engine scratch(vfe::CartesianGridSpec{});
     scratch.configure(e->local->options());
     scratch.configure(rest);
+    // The engine's smoothing is an implicit diffusion over the whole mesh: no ghost layer
+    // reaches as far, so it would need a distributed solve.
+    if (std::stod(scratch.option("smoothing_length")) != 0)
+      throw Error(VFE_ERROR_UNSUPPORTED,
+                  "smoothing_length: the smoothing solves a diffusion over the whole mesh, which vfe_mpi does not "
+                  "do across ranks; set smoothing_length=0 and smooth on the host's decomposed mesh");
   });
   if (s != VFE_OK) return s;
   return collective(*e, [&] {

@@ -349,6 +349,8 @@ TEST(DistributedCartesian, BadOptionChangesNothing) {
   ASSERT_EQ(vfe_mpi_configure(e, "method=exact"), VFE_OK);
   EXPECT_EQ(vfe_mpi_configure(e, "method=direct periodic=w"), VFE_ERROR_INVALID_ARGUMENT);
   EXPECT_EQ(vfe_mpi_configure(e, "method=direct sigma=-1"), VFE_ERROR_INVALID_ARGUMENT);
+  EXPECT_EQ(vfe_mpi_configure(e, "method=direct smoothing_length=0.001"), VFE_ERROR_UNSUPPORTED);
+  EXPECT_NE(std::strstr(vfe_mpi_last_error(e), "smoothing_length"), nullptr) << vfe_mpi_last_error(e);
   const Scene scene = scenes(g)[2];
   const std::vector<double> serial = serial_field(g, scene, "method=exact");
   const Local l = owned_particles(scene, g, lo, hi);

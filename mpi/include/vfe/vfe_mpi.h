@@ -53,7 +53,8 @@ VFE_API vfe_status vfe_mpi_create_polymesh(MPI_Comm comm, const char* processor_
 /** Collective. Frees the handle; NULL is a no-op (on every rank, or on none). */
 VFE_API void vfe_mpi_destroy(vfe_mpi_engine* e);
 
-/** Collective. vfe_configure's keys and values; periodic= applies to the global grid. */
+/** Collective. vfe_configure's keys and values; periodic= applies to the global grid.
+ *  smoothing_length > 0 (a diffusion over the whole mesh) answers VFE_ERROR_UNSUPPORTED. */
 VFE_API vfe_status vfe_mpi_configure(vfe_mpi_engine* e, const char* options);
 
 /** Owned cells of this rank, or -1 when e is NULL. */
