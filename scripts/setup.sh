@@ -1,9 +1,13 @@
 #!/usr/bin/env bash
 # Installs vfe's dependencies from Debian 12 packages when missing, then configures and
 # builds one CMake preset (default: release). Usage: scripts/setup.sh [release|audit|profiling]
+# `scripts/setup.sh openfoam` also installs OpenFOAM and LIGGGHTS and builds the hosts:
+# release, then build/openfoam/lib/libvfeFunctionObject.so (hosts/openfoam/build.sh).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 preset="${1:-release}"
+hosts=""
+[ "$preset" = openfoam ] && { hosts=openfoam; preset=release; }
 
 packages=(g++ cmake ninja-build pkg-config libtbb-dev libeigen3-dev libnanoflann-dev libspdlog-dev
           libyaml-cpp-dev libcli11-dev zlib1g-dev libgtest-dev libbenchmark-dev python3-matplotlib
@@ -13,6 +17,9 @@ packages=(g++ cmake ninja-build pkg-config libtbb-dev libeigen3-dev libnanoflann
 for p in python3-lammps liblammps-dev; do
   apt-cache show "$p" >/dev/null 2>&1 && packages+=("$p")
 done
+# The hosts: Debian's OpenFOAM (libraries and tools; its headers and wmake come from the
+# source package, dpkg-dev fetches it), LIGGGHTS's library and MPI.
+[ -n "$hosts" ] && packages+=(openfoam libopenfoam dpkg-dev libliggghts-dev libopenmpi-dev openmpi-bin)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
@@ -30,3 +37,7 @@ fi
 
 cmake --preset "$preset" >/dev/null
 cmake --build --preset "$preset" -j "$(nproc)"
+if [ -n "$hosts" ]; then
+  hosts/openfoam/build.sh "build/$preset"
+  cmake --preset "$preset" >/dev/null    # registers the function object's test now that it exists
+fi

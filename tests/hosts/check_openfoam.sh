@@ -50,7 +50,15 @@ if (cd "$case" && postProcess -latestTime >log.badDumps 2>&1); then
 fi
 grep -q "no dump file matches '.*no_such_\*.dump.gz'" "$case/log.badDumps" ||
   { echo "no message naming the pattern:"; tail -20 "$case/log.badDumps"; exit 1; }
-sed -i 's|no_such_\*.dump.gz|bed_mono_*.dump.gz|' "$case/system/controlDict"
+# A dump cut inside its atom list: the message names the file and line.
+gzip -dc "$src/data/liggghts/bed_mono_frames/bed_mono_30000.dump.gz" | sed -n 1,5000p >"$work/cut_30000.dump"
+sed -i "s|\"[^\"]*no_such_\*.dump.gz\"|\"$work/cut_*.dump\"|" "$case/system/controlDict"
+if (cd "$case" && postProcess -latestTime >log.cutDump 2>&1); then
+  echo "postProcess ran on a truncated dump"; exit 1
+fi
+grep -q "cut_30000.dump:5000: the file ends inside the atom list" "$case/log.cutDump" ||
+  { echo "no message naming the truncated dump's line:"; tail -20 "$case/log.cutDump"; exit 1; }
+sed -i "s|\"$work/cut_\*.dump\"|\"\$VFE_DATA/liggghts/bed_mono_frames/bed_mono_*.dump.gz\"|" "$case/system/controlDict"
 
 if [ "$np" -gt 1 ]; then
   (cd "$case" && decomposePar -force >log.decomposePar 2>&1 &&
