@@ -2,8 +2,9 @@
 # Builds the OpenFOAM function object build/openfoam/lib/libvfeFunctionObject.so against
 # Debian's OpenFOAM (packages openfoam, libopenfoam: libraries, no headers, no wmake).
 # Headers and wmake come from the Debian source package of the same version, fetched once
-# into build/openfoam/src and reused (about 300 MB). vfe is installed from BUILD_DIR into
-# build/openfoam (include/, lib/), where the function object finds it.
+# into build/openfoam/src (scripts/apt_source.sh) and reused (about 300 MB). vfe is
+# installed from BUILD_DIR into build/openfoam (include/, lib/), where the function object
+# finds it.
 # Usage: hosts/openfoam/build.sh [BUILD_DIR (default build/release)]
 set -euo pipefail
 root="$(cd "$(dirname "$0")/../.." && pwd)"
@@ -15,14 +16,7 @@ step() { echo "openfoam: $1 ($(( $(date +%s) - t0 )) s)"; }
 t0=$(date +%s)
 foam_src="$(find "$out/src" -maxdepth 1 -type d -name 'openfoam-*' | head -1)"
 if [ -z "$foam_src" ]; then
-  if ! grep -rqs '^Types:.*deb-src\|^deb-src' /etc/apt/sources.list /etc/apt/sources.list.d/; then
-    # The machine's own Debian sources, as source lines.
-    sudo=""; [ "$(id -u)" -ne 0 ] && sudo="sudo"
-    sed -e 's/^Types: deb$/Types: deb-src/' /etc/apt/sources.list.d/debian.sources |
-      $sudo tee /etc/apt/sources.list.d/vfe-deb-src.sources >/dev/null
-    $sudo apt-get update -qq
-  fi
-  (cd "$out/src" && apt-get source -qq "openfoam=$(dpkg-query -W -f='${Version}' openfoam | sed 's/+b[0-9]*$//')" >/dev/null)
+  "$root/scripts/apt_source.sh" "$out/src" "$(dpkg-query -W -f='${source:Package}=${source:Version}' openfoam)" >/dev/null
   foam_src="$(find "$out/src" -maxdepth 1 -type d -name 'openfoam-*' | head -1)"
   step "fetched the OpenFOAM source package"
 fi

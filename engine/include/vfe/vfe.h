@@ -10,12 +10,16 @@
 
 #include <stdint.h>
 
-#define VFE_VERSION_MAJOR 0
-#define VFE_VERSION_MINOR 1
-#define VFE_VERSION_PATCH 0
+#include <vfe/version.h>
 
+/* libvfe is built with hidden symbols; VFE_API marks what it exports. VFE_BUILDING_LIBRARY
+ * is defined only while compiling the library itself. */
 #if defined(_WIN32)
+#if defined(VFE_BUILDING_LIBRARY)
 #define VFE_API __declspec(dllexport)
+#else
+#define VFE_API __declspec(dllimport)
+#endif
 #else
 #define VFE_API __attribute__((visibility("default")))
 #endif
@@ -38,6 +42,9 @@ typedef enum vfe_status {
 
 /** Version string "MAJOR.MINOR.PATCH" of the loaded library. */
 VFE_API const char* vfe_version(void);
+/** Version of the loaded library as MAJOR*10000 + MINOR*100 + PATCH (VFE_VERSION_NUMBER
+ *  of the headers it was built from). */
+VFE_API uint32_t vfe_version_number(void);
 
 /** Short name of a status ("VFE_OK", "VFE_ERROR_IO", ...); never NULL. */
 VFE_API const char* vfe_status_name(vfe_status s);
@@ -68,8 +75,11 @@ VFE_API int64_t vfe_cell_count(const vfe_engine* e);
 /** Writes the volume of every cell (cell_count values). */
 VFE_API vfe_status vfe_cell_volumes(const vfe_engine* e, double* out);
 
-/** Solid volume per cell of n spheres (centres 3n, radii n, orientations 4n quaternions
- *  w,x,y,z or NULL). solid_volume gets cell_count values (overwritten, not added to).
+/** Solid volume per cell of n spheres (centres 3n: x, y, z per particle; radii n;
+ *  orientations 4n quaternions w, x, y, z or NULL: read only under orientation=given, where
+ *  each particle's template is rotated by its quaternion (normalised); orientation=random
+ *  rotates each template by a fixed pseudo-random rotation of the particle's index and
+ *  orientation=none not at all, both ignoring orientations). solid_volume gets cell_count values (overwritten, not added to).
  *  The host's arrays are read, not copied, and not kept after the call. */
 VFE_API vfe_status vfe_compute(vfe_engine* e, int64_t n, const double* centres,
                                const double* radii, const double* orientations,
@@ -156,8 +166,10 @@ typedef struct vfe_report {
 VFE_API vfe_status vfe_last_report(const vfe_engine* e, vfe_report* out);
 
 /** One fact of the last successful compute by name: any field of vfe_report, and
- *  "moved_particles" (particles computed anew; with incremental=1 those that moved) and
- *  "touched_cells" (cells with solid volume; with touched_only=1, else -1). Unknown keys
+ *  "moved_particles" (particles computed anew; with incremental=1 those that moved),
+ *  "touched_cells" (cells with solid volume; with touched_only=1, else -1), "overfull_cells"
+ *  and "overfull_volume" (cells whose solid volume exceeds their volume, eps < 0, and the
+ *  excess: a scene that does not match the mesh, or cells smaller than the particles). Unknown keys
  *  give VFE_ERROR_INVALID_ARGUMENT. New facts get new keys, so vfe_report never changes. */
 VFE_API vfe_status vfe_last_report_value(const vfe_engine* e, const char* key, double* out);
 
