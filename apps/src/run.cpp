@@ -223,6 +223,7 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
       row.time_median_ms = row.time_min_ms = row.particles_per_s = row.sub_elements_per_s = nan;
       row.accuracy.theta = row.accuracy.max_error = row.accuracy.l1 = row.accuracy.volume_error = nan;
       row.particle_volume = row.deposited_volume = row.dropped_volume = row.clipped_volume = nan;
+      row.overfull_volume = nan;
       return row;
     };
     /// Row of a finished compute: timings, report, and errors against the reference if any.
@@ -254,6 +255,10 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
       row.dropped_volume = rep.dropped_volume;
       row.clipped_volume = rep.clipped_volume;
       row.outside_particles = rep.outside_particles;
+      const OverfullFacts overfull = overfull_facts(*engine);
+      row.overfull_cells = overfull.cells;
+      row.overfull_volume = overfull.volume;
+      warn_overfull(*log, mesh.name, m.label, overfull, rep.particle_volume);
       const std::string outside = engine->option("outside");
       if (rep.outside_particles > 0 && !outside_warned) {
         outside_warned = true;
