@@ -142,6 +142,7 @@ struct Engine::Impl {
     double eq_diameter = 0;  ///< diameter of the sphere of equal volume, at scale 1
     const std::vector<std::unique_ptr<ParticleTemplate>>* variants = nullptr;  ///< pmm's bank for this compute
     double scale_min = 0, scale_max = 0;
+    std::uint32_t variants_needed = 0;  ///< bit k: a particle of this compute takes variant k
   };
   std::vector<RegisteredShape> shapes;
   std::map<std::pair<std::int32_t, std::int64_t>, std::vector<std::unique_ptr<ParticleTemplate>>> shape_templates;
@@ -176,24 +177,26 @@ struct Engine::Impl {
 
   /// The bank of kShapeVariants partitions of shape id into n sub-elements (variants 1..K of
   /// make_shape_template_variant: variant 0 is the lattice aligned with the shape's axes),
-  /// built once and cached.
-  const std::vector<std::unique_ptr<ParticleTemplate>>& shape_template(std::int32_t id, std::int64_t n) {
+  /// each built when a particle first needs it (bit k of `needed`) and then cached.
+  const std::vector<std::unique_ptr<ParticleTemplate>>& shape_template(std::int32_t id, std::int64_t n,
+                                                                       std::uint32_t needed) {
     auto& bank = shape_templates[{id, n}];
-    if (bank.empty()) {
-      const RegisteredShape& sh = shapes[id];
-      const auto start = std::chrono::steady_clock::now();
-      bank.resize(kShapeVariants);
-      // The variants are independent: built in parallel in the engine's arena.
-      arena->execute([&] {
-        tbb::parallel_for(std::size_t(0), kShapeVariants, [&](std::size_t k) {
-          bank[k] = std::make_unique<ParticleTemplate>(kernels::make_shape_template_variant(
-              sh.shape, static_cast<int>(n), static_cast<std::uint32_t>(k + 1)));
-        });
+    bank.resize(kShapeVariants);
+    std::vector<std::size_t> missing;
+    for (std::size_t k = 0; k < kShapeVariants; ++k)
+      if (((needed >> k) & 1u) && !bank[k]) missing.push_back(k);
+    if (missing.empty()) return bank;
+    const RegisteredShape& sh = shapes[id];
+    const auto start = std::chrono::steady_clock::now();
+    // The variants are independent: built in parallel in the engine's arena.
+    arena->execute([&] {
+      tbb::parallel_for(std::size_t(0), missing.size(), [&](std::size_t i) {
+        bank[missing[i]] = std::make_unique<ParticleTemplate>(kernels::make_shape_template_variant(
+            sh.shape, static_cast<int>(n), static_cast<std::uint32_t>(missing[i] + 1)));
       });
-      log->info("built {} templates of {} sub-elements for shape {} ({}) in {:.3f} s", kShapeVariants,
-                bank.front()->size(), id, sh.shape.description(),
-                std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
-    }
+    });
+    log->info("built {} templates of {} sub-elements for shape {} ({}) in {:.3f} s", missing.size(), n, id,
+              sh.shape.description(), std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
     return bank;
   }
 
@@ -209,10 +212,11 @@ struct Engine::Impl {
   /// cannot represent a shape.
   void prepare_shapes(const ParticleArrays& pa) {
     if (!pa.shape_ids) return;
-    for (auto& sh : shapes) sh.scale_min = sh.scale_max = 0;
+    for (auto& sh : shapes) sh.scale_min = sh.scale_max = 0, sh.variants_needed = 0;
     for (std::int64_t p = 0; p < pa.n; ++p) {
       RegisteredShape& sh = shapes[pa.shape_id(p)];
       const double scale = pa.radius(p);
+      sh.variants_needed |= 1u << shape_variant(pa.rotation_key(p));
       sh.scale_min = sh.scale_max == 0 ? scale : std::min(sh.scale_min, scale);
       sh.scale_max = std::max(sh.scale_max, scale);
     }
@@ -231,13 +235,13 @@ struct Engine::Impl {
           throw Error(VFE_ERROR_UNSUPPORTED, why);
       if (opts.method != Method::pmm) continue;
       if (opts.particle_grid > 0) {
-        sh.variants = &shape_template(id, opts.particle_grid);
+        sh.variants = &shape_template(id, opts.particle_grid, sh.variants_needed);
         continue;
       }
       // One template per shape, sized for its largest particles (the smallest chi, the
       // most sub-elements): shape templates are costly to cut, so none per size step.
       const std::int64_t k = detail::auto_step(sh.eq_diameter * sh.scale_max, mesh.smallest_cell_volume(), shape_rule);
-      sh.variants = &shape_template(id, detail::auto_particle_count(k, shape_rule));
+      sh.variants = &shape_template(id, detail::auto_particle_count(k, shape_rule), sh.variants_needed);
     }
   }
 
@@ -855,7 +859,7 @@ double Engine::last_report_value(std::string_view key) const {
 
 std::int32_t Engine::add_shape(std::string_view spec) {
   UseGuard guard(impl_->busy);
-  Impl::RegisteredShape sh{parse_shape_spec(spec), false, 0, nullptr, 0, 0};
+  Impl::RegisteredShape sh{parse_shape_spec(spec), false, 0, nullptr, 0, 0, 0};
   sh.is_sphere = sh.shape.kind() == kernels::Shape::Kind::sphere;
   sh.eq_diameter = std::cbrt(6.0 * sh.shape.volume() / std::numbers::pi);
   impl_->shapes.push_back(std::move(sh));

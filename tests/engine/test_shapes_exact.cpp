@@ -277,3 +277,44 @@ TEST(ShapeConvergence, DISABLED_Table) {
     EXPECT_LT(l1[2], l1[0]);
   }
 }
+
+// Cost per particle of exact against pmm at its stable size (particle_grid=auto) for 2000
+// shaped particles, volume-equivalent diameter 1, random positions and orientations, on
+// cells of side chi (docs/shapes.md); one thread, median of 5 computes after a first one
+// that builds the templates.
+TEST(ShapeConvergence, DISABLED_CostPerParticle) {
+  std::printf("| shape | chi | method | n | us/particle |\n|---|---|---|---|---|\n");
+  for (const char* spec : {"ellipsoid 1 0.6 0.3", "cube"})
+    for (const double chi : {1.0, 2.0}) {
+      const std::int64_t cells = 16;
+      vfe::CartesianGridSpec g;
+      g.spacing = {chi, chi, chi};
+      g.cells = {cells, cells, cells};
+      vfe::Engine e(g);
+      const std::int32_t id = e.add_shape(std::string(spec) == "cube" ? kCube : spec);
+      const double scale = std::cbrt(std::numbers::pi / 6.0 / e.shape_volume(id));
+      Bodies b;
+      std::uint64_t state = 7;
+      auto u = [&] {  // a fixed-seed uniform in [0, 1)
+        state = state * 6364136223846793005ull + 1442695040888963407ull;
+        return double(state >> 11) * 0x1p-53;
+      };
+      for (int p = 0; p < 2000; ++p)
+        b.add(id, Eigen::Vector3d(1 + u() * (cells * chi - 2), 1 + u() * (cells * chi - 2), 1 + u() * (cells * chi - 2)),
+              scale, Eigen::Quaterniond(u() - 0.5, u() - 0.5, u() - 0.5, u() - 0.5));
+      for (const char* method : {"method=exact", "method=pmm"}) {
+        const std::string options = std::string(method) + " orientation=given threads=1";
+        auto f = run(e, b, options);
+        std::vector<double> times;
+        for (int r = 0; r < 5; ++r) {
+          const auto start = std::chrono::steady_clock::now();
+          e.compute(b.view(), f);
+          times.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+        }
+        std::sort(times.begin(), times.end());
+        std::printf("| %s | %.0f | %s | %lld | %.2f |\n", spec, chi, method,
+                    static_cast<long long>(e.last_report().particle_grid_max), times[2] / 2000 * 1e6);
+        EXPECT_NEAR(sum(f), 2000 * e.shape_volume(id) * scale * scale * scale, 1e-9 * 2000);
+      }
+    }
+}
