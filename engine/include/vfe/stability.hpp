@@ -74,6 +74,11 @@ struct StabilityReport {
 /// Seed of trajectory i (also its template orientation: the engine's option seed=).
 std::uint64_t trajectory_seed(std::uint64_t seed, int trajectory);
 
+/// The reference's method options for these options: "method=exact" for spheres and the
+/// shapes exact computes (ellipsoids, triangle meshes), "method=pmm particle_grid=N"
+/// (N = reference_grid) for the others. Throws Error for a bad shape spec.
+std::string stability_reference(const StabilityOptions& options);
+
 /// Runs the stress test. Deterministic for given options (any thread count). Throws
 /// vfe::Error (invalid argument) for bad options, naming them.
 StabilityReport stability_test(const StabilityOptions& options);
