@@ -79,7 +79,7 @@ VFE_API std::uint64_t trajectory_seed(std::uint64_t seed, int trajectory);
 /// The reference's method options for these options: "method=exact" for spheres and the
 /// shapes exact computes (ellipsoids, triangle meshes), "method=pmm particle_grid=N"
 /// (N = reference_grid) for the others. Throws Error for a bad shape spec.
-std::string stability_reference(const StabilityOptions& options);
+VFE_API std::string stability_reference(const StabilityOptions& options);
 
 /// Runs the stress test. Deterministic for given options (any thread count). Throws
 /// vfe::Error (invalid argument) for bad options, naming them.
