@@ -2,8 +2,10 @@
 #include "engine_methods.hpp"
 #include "random.hpp"
 #include "report.hpp"
+#include "run.hpp"
 #include "timing.hpp"
 
+#include <CLI/CLI.hpp>
 #include <vfe/engine.hpp>
 #include <vfe/kernels/particle_template.hpp>
 #include <vfe/vfe.h>
@@ -35,6 +37,8 @@
 #include <stdexcept>
 #include <thread>
 #include <variant>
+#include <iostream>
+#include <memory>
 
 namespace vfe::apps {
 
@@ -683,6 +687,44 @@ BenchOutcome run_bench(const BenchCommand& c) {
   log->info("wrote {}, {} and {}", (c.output / "bench.csv").string(), (c.output / "limits.csv").string(),
             (c.output / "bench.json").string());
   return out;
+}
+
+CliCommand register_bench(CLI::App& app) {
+  struct Args {
+    BenchCommand bench_cmd;
+    bool bench_quiet = false;
+  };
+  const auto args = std::make_shared<Args>();
+  CLI::App* bench = app.add_subcommand(
+      "bench", "Throughput of the methods on generated scenes (packed bed or dilute stream): time, sub-elements/s, "
+               "memory, thread speed-up and measured limits (bench.csv, limits.csv, bench.json)");
+  bench->add_option("--scene", args->bench_cmd.scene, "bed (packed, solid fraction 0.58) or stream (dilute, 0.05)")
+      ->capture_default_str();
+  bench->add_option("--dispersity", args->bench_cmd.dispersity, "mono (diameter 1) or poly (uniform in [0.7, 1.3])")
+      ->capture_default_str();
+  bench->add_option("-n,--particles", args->bench_cmd.particles,
+                    "Particle counts, a list (default 1e4,1e5; e.g. 1e4,1e5,1e6,4e6)")
+      ->delimiter(',');
+  bench->add_option("--chi", args->bench_cmd.chi, "Cell size / mean diameter, a list (default 2; e.g. 0.5,1,2,4)")
+      ->delimiter(',');
+  bench->add_option("-t,--threads", args->bench_cmd.threads, "Thread counts, a list (default 1,2; 0 = all)")->delimiter(',');
+  bench->add_option("--method", args->bench_cmd.methods, "Engine methods, a list (default direct,pmm,exact), or all")->delimiter(',');
+  bench->add_option("--particle-grid", args->bench_cmd.particle_grid, "pmm's particle_grid: auto or a count")
+      ->capture_default_str();
+  bench->add_option("--options", args->bench_cmd.options, "More engine options, \"key=value ...\" (e.g. orientation=none)");
+  bench->add_option("-r,--repeats", args->bench_cmd.repeats, "Timed computes after one warm-up (the median is reported)")
+      ->capture_default_str();
+  bench->add_option("--seed", args->bench_cmd.seed, "Seed of the generated scene")->capture_default_str();
+  bench->add_flag("!--no-limits", args->bench_cmd.limits, "Skip the bandwidth and locate limits (e.g. to profile a method)");
+  bench->add_option("-o,--output", args->bench_cmd.output, "Output folder")->capture_default_str();
+  bench->add_flag("-q,--quiet", args->bench_quiet, "Print only the table, warnings and errors");
+
+  return {bench, [args] {
+    args->bench_cmd.logger = make_app_logger(args->bench_quiet);
+    args->bench_cmd.table = &std::cout;
+    run_bench(args->bench_cmd);
+    return 0;
+  }};
 }
 
 }  // namespace vfe::apps

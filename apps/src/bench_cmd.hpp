@@ -4,6 +4,8 @@
 // memory-bandwidth bound and a minimal PMM locate loop.
 #pragma once
 
+#include "cli_command.hpp"
+
 #include <array>
 #include <cstdint>
 #include <filesystem>
@@ -103,5 +105,8 @@ struct BenchOutcome {
 /// std::invalid_argument naming the bad argument (--chi, --scene, ...), vfe::Error from
 /// the engine (an unknown --options key) or std::runtime_error (output not writable).
 BenchOutcome run_bench(const BenchCommand& command);
+
+/// Adds `vfe bench` and its options to the tool (help text and checks included).
+CliCommand register_bench(CLI::App& app);
 
 }  // namespace vfe::apps

@@ -7,6 +7,7 @@
 #include "timing.hpp"
 #include "vtk_writer.hpp"
 
+#include <CLI/CLI.hpp>
 #include <vfe/engine.hpp>
 #include <vfe/measures.hpp>
 
@@ -23,6 +24,8 @@
 #include <optional>
 #include <ostream>
 #include <thread>
+#include <iostream>
+#include <memory>
 
 namespace vfe::apps {
 
@@ -488,6 +491,48 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
   }
   log->info("wrote {} and {}", (out_dir / "results.json").string(), (out_dir / "results.csv").string());
   return result;
+}
+
+CliCommand register_run(CLI::App& app) {
+  struct Args {
+    std::string config_file;
+    std::string output;
+    int threads = -1;
+    int repeats = -1;
+    bool quiet = false;
+    bool vtk = false;
+    bool foam = false;
+  };
+  const auto args = std::make_shared<Args>();
+  CLI::App* run = app.add_subcommand("run", "Compute, time and compare the methods of a YAML scene config");
+  run->add_option("config", args->config_file, "Scene config (YAML), e.g. configs/bed_mono.yaml")
+      ->required();
+  run->add_option("-o,--output", args->output, "Output folder (replaces the config's 'output')");
+  run->add_option("-t,--threads", args->threads, "Threads, 0 = all (replaces the config's 'threads')")
+      ->check(CLI::Range(0, 4096));
+  run->add_option("-r,--repeats", args->repeats, "Timed computes per method (replaces the config's 'repeats')")
+      ->check(CLI::Range(1, 1000000));
+  run->add_flag("-q,--quiet", args->quiet, "Print only the tables, warnings and errors");
+  run->add_flag("--vtk", args->vtk,
+                "Also write the fields of every method as <mesh>.vti (Cartesian) or <mesh>.vtu (polyMesh) for "
+                "ParaView");
+  run->add_flag("--foam", args->foam,
+                "Also write OpenFOAM fields <mesh>/0/voidfraction_<method> and <mesh>/0/voidfraction on "
+                "polyMesh meshes");
+
+  return {run, [args] {
+    const SceneConfig cfg = load_config(args->config_file);
+    RunOptions opt;
+    if (!args->output.empty()) opt.output = args->output;
+    if (args->threads >= 0) opt.threads = args->threads;
+    if (args->repeats >= 1) opt.repeats = args->repeats;
+    opt.vtk = args->vtk;
+    opt.foam = args->foam;
+    opt.logger = make_app_logger(args->quiet);
+    opt.table = &std::cout;
+    run_scene(cfg, opt);
+    return 0;
+  }};
 }
 
 }  // namespace vfe::apps

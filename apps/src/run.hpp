@@ -2,6 +2,8 @@
 // times it, measures it against the reference and writes the reports.
 #pragma once
 
+#include "cli_command.hpp"
+
 #include "config.hpp"
 #include "report.hpp"
 
@@ -45,5 +47,8 @@ struct RunResult {
 /// reference on a mesh, the error measures there are NaN. Throws DumpError, ConfigError, vfe::Error or std::runtime_error with a
 /// message that names the problem.
 RunResult run_scene(const SceneConfig& config, const RunOptions& options);
+
+/// Adds `vfe run` and its options to the tool (help text and checks included).
+CliCommand register_run(CLI::App& app);
 
 }  // namespace vfe::apps

@@ -1,7 +1,9 @@
 #include "stability_cmd.hpp"
+#include "run.hpp"
 
 #include "text_format.hpp"
 
+#include <CLI/CLI.hpp>
 #include <vfe/engine.hpp>
 #include <vfe/vfe.h>
 
@@ -16,6 +18,8 @@
 #include <map>
 #include <ostream>
 #include <stdexcept>
+#include <iostream>
+#include <memory>
 
 namespace vfe::apps {
 
@@ -313,6 +317,95 @@ StabilityOutcome run_stability(const StabilityCommand& c) {
   write_json(c.output / "stability.json", c, outcome);
   log->info("wrote {}", (c.output / "stability.csv").string());
   return outcome;
+}
+
+CliCommand register_stability(CLI::App& app) {
+  struct Args {
+    StabilityCommand stab;
+    std::string stab_step = "1/200";
+    bool stab_quiet = false;
+  };
+  const auto args = std::make_shared<Args>();
+  CLI::App* stability = app.add_subcommand(
+      "stability", "Stability stress test (docs/design.md section 8): spheres moving across cells in small steps");
+  stability->add_option("--chi", args->stab.chi, "Cell size / particle diameter, a list (e.g. 0.5,1,2)")
+      ->delimiter(',')
+      ->capture_default_str();
+  stability->add_option("--grid", args->stab.grids, "Particle grids, a list of integers or auto (default auto; "
+                                              "with --sweep: a ladder from 1 to 20000)")
+      ->delimiter(',');
+  stability->add_option("--method", args->stab.method, "Engine method (pmm, direct, exact, ...)")->capture_default_str();
+  stability->add_option("--template", args->stab.templates, "Template families, a list (default: the engine's)")
+      ->delimiter(',');
+  stability->add_option("--orientation", args->stab.orientations, "Template orientations, a list (random, none)")
+      ->delimiter(',');
+  stability->add_option("--options", args->stab.options, "More engine options, \"key=value ...\"");
+  stability->add_option("--step", args->stab_step, "Step as a fraction of the diameter (e.g. 1/200 or 0.005)")
+      ->capture_default_str();
+  stability->add_option("--trajectories", args->stab.trajectories, "Trajectories per run")
+      ->check(CLI::Range(1, 1000000))
+      ->capture_default_str();
+  stability->add_option("--seed", args->stab.seed, "Seed of the trajectories and their template orientations")
+      ->capture_default_str();
+  stability->add_option("--cells", args->stab.cells, "Distance travelled, in cells")
+      ->check(CLI::Range(1e-6, 1000.0))
+      ->capture_default_str();
+  stability->add_option("--criterion", args->stab.jump_criterion, "deps_crit for J (default pi/162)")
+      ->check(CLI::PositiveNumber);
+  stability->add_option("--superficial-velocity", args->stab.superficial_velocity,
+                        "U_s for the flux form psi = |deps| dx / (U_s dt_f)")
+      ->check(CLI::PositiveNumber);
+  stability->add_option("--fluid-dt", args->stab.fluid_dt, "Fluid time step dt_f for the flux form")
+      ->check(CLI::PositiveNumber);
+  stability->add_option("--diameter", args->stab.diameter,
+                        "Particle diameter in the length unit of U_s dt_f (dx = chi * diameter)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  stability->add_option("--shape", args->stab.shape,
+                        "A shaped particle instead of a sphere, e.g. \"ellipsoid 1 0.6 0.4\" (scaled to the volume-"
+                        "equivalent diameter, a random orientation per trajectory; reference: exact for ellipsoids and "
+                        "meshes, a fine pmm for superquadrics and clumps)");
+  stability->add_option("--reference-grid", args->stab.reference_grid,
+                        "particle_grid of the reference pmm for --shape")
+      ->check(CLI::Range(std::int64_t{1}, std::int64_t{10000000}))
+      ->capture_default_str();
+  stability->add_flag("--sweep", args->stab.sweep, "Sweep the particle grids at every chi and find n_min(chi)");
+  stability->add_option("-t,--threads", args->stab.threads, "Threads, 0 = all")->check(CLI::Range(0, 4096));
+  stability->add_option("-o,--output", args->stab.output, "Output folder")->capture_default_str();
+  stability->add_flag("-q,--quiet", args->stab_quiet, "Print only the tables, warnings and errors");
+
+  return {stability, [args] {
+    // --step takes a fraction (1/200) or a number.
+    const auto slash = args->stab_step.find('/');
+    std::size_t used = 0;
+    double step = 0;
+    try {
+      if (slash == std::string::npos) {
+        step = std::stod(args->stab_step, &used);
+        if (used != args->stab_step.size()) step = 0;
+      } else {
+        const double a = std::stod(args->stab_step.substr(0, slash), &used);
+        const double b = used == slash ? std::stod(args->stab_step.substr(slash + 1), &used) : 0;
+        step = b > 0 && used == args->stab_step.size() - slash - 1 ? a / b : 0;
+      }
+    } catch (const std::exception&) {
+      step = 0;
+    }
+    if (!(step > 0) || step > 1) {
+      std::cerr << "vfe: error: --step: bad value '" << args->stab_step
+                << "'; expected a fraction of the diameter in (0, 1], e.g. 1/200 or 0.005\n";
+      return 2;
+    }
+    if ((args->stab.superficial_velocity > 0) != (args->stab.fluid_dt > 0)) {
+      std::cerr << "vfe: error: the flux form needs both --superficial-velocity and --fluid-dt\n";
+      return 2;
+    }
+    args->stab.step = step;
+    args->stab.logger = make_app_logger(args->stab_quiet);
+    args->stab.table = &std::cout;
+    run_stability(args->stab);
+    return 0;
+  }};
 }
 
 }  // namespace vfe::apps

@@ -2,6 +2,8 @@
 // sweep over chi and particle grids that finds the empirical n_min(chi).
 #pragma once
 
+#include "cli_command.hpp"
+
 #include <vfe/stability.hpp>
 
 #include <cstdint>
@@ -74,5 +76,8 @@ std::vector<std::string> default_sweep_grids();
 /// Runs the test (or the sweep), writes stability.csv, stability.json (and n_min.csv),
 /// prints the tables. Throws vfe::Error or std::runtime_error naming the problem.
 StabilityOutcome run_stability(const StabilityCommand& command);
+
+/// Adds `vfe stability` and its options to the tool (help text and checks included).
+CliCommand register_stability(CLI::App& app);
 
 }  // namespace vfe::apps

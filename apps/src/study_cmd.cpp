@@ -8,6 +8,7 @@
 #include "text_format.hpp"
 #include "timing.hpp"
 
+#include <CLI/CLI.hpp>
 #include <vfe/engine.hpp>
 
 #include <spdlog/logger.h>
@@ -21,6 +22,8 @@
 #include <ostream>
 #include <sstream>
 #include <thread>
+#include <iostream>
+#include <memory>
 
 namespace vfe::apps {
 
@@ -431,6 +434,52 @@ StudyResult run_study(const SceneConfig& cfg, const StudyOptions& opt) {
   log->info("wrote {}, {} and {}", (out_dir / "study.csv").string(), (out_dir / "comparisons.csv").string(),
             (out_dir / "study.json").string());
   return result;
+}
+
+CliCommand register_study(CLI::App& app) {
+  struct Args {
+    std::string study_config;
+    std::string study_output;
+    int study_threads = -1;
+    int study_repeats = -1;
+    std::vector<double> study_chi;
+    std::string study_base = "pmm";
+    bool study_quiet = false;
+    std::vector<std::string> study_families;
+  };
+  const auto args = std::make_shared<Args>();
+  CLI::App* study = app.add_subcommand(
+      "study", "Run time against error of every method and setting of a scene at several chi (study.csv, "
+               "comparisons.csv, study.json; plot with scripts/plot_study.py)");
+  study->add_option("config", args->study_config, "Study config (YAML), e.g. configs/study_bed.yaml")->required();
+  study->add_option("-o,--output", args->study_output, "Output folder (replaces the config's 'output')");
+  study->add_option("-t,--threads", args->study_threads, "Threads, 0 = all (replaces the config's 'threads')")
+      ->check(CLI::Range(0, 4096));
+  study->add_option("-r,--repeats", args->study_repeats, "Timed computes per point (replaces the config's 'repeats')")
+      ->check(CLI::Range(1, 1000000));
+  study->add_option("--chi", args->study_chi, "Cell size / mean diameter, a list (replaces the config's 'chi')")
+      ->delimiter(',')
+      ->check(CLI::PositiveNumber);
+  study->add_option("--base", args->study_base, "Family compared with every other point")->capture_default_str();
+  study->add_option("--families", args->study_families,
+                    "Run only these method families (labels of the config's methods), a list")
+      ->delimiter(',');
+  study->add_flag("-q,--quiet", args->study_quiet, "Print only the tables, warnings and errors");
+
+  return {study, [args] {
+    const SceneConfig cfg = load_config(args->study_config);
+    StudyOptions opt;
+    if (!args->study_output.empty()) opt.output = args->study_output;
+    if (args->study_threads >= 0) opt.threads = args->study_threads;
+    if (args->study_repeats >= 1) opt.repeats = args->study_repeats;
+    if (!args->study_chi.empty()) opt.chi = args->study_chi;
+    opt.base = args->study_base;
+    opt.families = args->study_families;
+    opt.logger = make_app_logger(args->study_quiet);
+    opt.table = &std::cout;
+    run_study(cfg, opt);
+    return 0;
+  }};
 }
 
 }  // namespace vfe::apps

@@ -4,6 +4,8 @@
 // (pmm) compares with every other point at equal error and at equal cost.
 #pragma once
 
+#include "cli_command.hpp"
+
 #include "config.hpp"
 
 #include <vfe/measures.hpp>
@@ -111,5 +113,8 @@ double front_time_at_error(const Front& f, double e, std::string* note);
 /// Error the front reaches in time t: log-log interpolation; the last error when t is
 /// beyond its costliest point (note ">="); NaN when t is below its cheapest (note "n/a").
 double front_error_at_time(const Front& f, double t, std::string* note);
+
+/// Adds `vfe study` and its options to the tool (help text and checks included).
+CliCommand register_study(CLI::App& app);
 
 }  // namespace vfe::apps
