@@ -158,7 +158,10 @@ typedef struct vfe_report {
   double particle_volume;       /* sum of the particles' volumes */
   double deposited_volume;      /* sum of the solid volume field */
   double dropped_volume;        /* lost outside the mesh under outside=drop */
-  int64_t outside_particles;    /* particles with some volume outside the mesh */
+  int64_t outside_particles;    /* particles with some volume outside the mesh: on a grid, spheres
+                                   reaching beyond its box by more than outside_tolerance (the same
+                                   count for every method); on a polyMesh and for shapes, those
+                                   with volume the method placed beyond the mesh */
   double clipped_volume;        /* removed from eps by alpha_min (solid volume units) */
 } vfe_report;
 
