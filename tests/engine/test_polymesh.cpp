@@ -608,6 +608,11 @@ TEST(RectilinearGrid, ValidatesNodes) {
                {"axis y", "node 2", "strictly increasing"});
   expect_error([] { vfe::RectilinearGrid({std::vector<double>{0, 1}, {0, 1}, {0, NAN}}); }, VFE_ERROR_INVALID_ARGUMENT,
                {"axis z", "finite"});
+  // Cells whose volume underflows (or overflows) double.
+  expect_error([] { vfe::RectilinearGrid({std::vector<double>{0, 1e-200}, {0, 1e-200}, {0, 1}}); }, VFE_ERROR_INVALID_ARGUMENT,
+               {"cannot be computed in doubles"});
+  expect_error([] { vfe::RectilinearGrid({std::vector<double>{-1e300, 1e300}, {0, 1e300}, {0, 1}}); },
+               VFE_ERROR_INVALID_ARGUMENT, {"cannot be computed in doubles"});
 }
 
 TEST(RectilinearGrid, LocatesByBinarySearchWithCartesianTieRule) {
