@@ -299,27 +299,37 @@ Shape Shape::clump(std::vector<Eigen::Vector4d> spheres) {
   s.spheres_ = std::move(spheres);
   // Exact slice areas and moments (union of disks) integrated over z between the
   // spheres' poles and centres, where the slice topology changes.
+  // Integrated about the bounding box's centre c0, with the moments divided by `spread`
+  // (1 unless the spheres lie more than 1000 radii apart): the moments' round-off then
+  // stays within the tolerance, which otherwise drove the adaptive rule to its full depth
+  // (minutes for two spheres 1e15 apart).
+  const Eigen::Vector3d c0 = s.bounds_.center();
+  double scale = 0;
+  for (const auto& q : s.spheres_) scale = std::max(scale, q[3]);
+  const double spread = std::max(1.0, s.bounds_.sizes().maxCoeff() / (1000 * scale));
   std::vector<double> breaks;
-  for (const auto& q : s.spheres_) breaks.insert(breaks.end(), {q[2] - q[3], q[2], q[2] + q[3]});
+  for (const auto& q : s.spheres_) {
+    const double z = q[2] - c0[2];
+    breaks.insert(breaks.end(), {z - q[3], z, z + q[3]});
+  }
   std::sort(breaks.begin(), breaks.end());
   breaks.erase(std::unique(breaks.begin(), breaks.end()), breaks.end());
   std::vector<Eigen::Vector3d> disks;
   auto slice = [&](double z) {
     disks.clear();
     for (const auto& q : s.spheres_) {
-      const double h2 = q[3] * q[3] - (z - q[2]) * (z - q[2]);
-      if (h2 > 0) disks.emplace_back(q[0], q[1], std::sqrt(h2));
+      const double dz = z - (q[2] - c0[2]);
+      const double h2 = q[3] * q[3] - dz * dz;
+      if (h2 > 0) disks.emplace_back(q[0] - c0[0], q[1] - c0[1], std::sqrt(h2));
     }
     const DiskUnion u = disk_union(disks);
-    return Vec4(u.area, u.moment_x, u.moment_y, z * u.area);
+    return Vec4(u.area, u.moment_x / spread, u.moment_y / spread, z * u.area / spread);
   };
-  double scale = 0;
-  for (const auto& q : s.spheres_) scale = std::max(scale, q[3]);
   const double tol = 1e-13 * scale * scale * scale;
   Vec4 total = Vec4::Zero();
   for (std::size_t i = 0; i + 1 < breaks.size(); ++i) total += integrate(slice, breaks[i], breaks[i + 1], tol);
   s.props_.volume = total[0];
-  s.props_.centroid = Eigen::Vector3d(total[1], total[2], total[3]) / total[0];
+  s.props_.centroid = c0 + Eigen::Vector3d(total[1], total[2], total[3]) * (spread / total[0]);
   check_sampling_cost(s, kMaxShapeSamples);
   s.props_.second_moment = sampled_second_moment(sample_shape(s, 400000), s.props_.centroid, s.props_.volume);
   return s;
