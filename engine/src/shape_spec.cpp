@@ -189,7 +189,12 @@ kernels::TriangleMesh read_triangle_mesh(const std::string& path) {
     throw Error(VFE_ERROR_IO, "mesh file '" + path + "' is a folder; give the path of an .stl or .obj file");
   std::ifstream f(path, std::ios::binary);
   if (!f) throw Error(VFE_ERROR_IO, "cannot open mesh file '" + path + "'; check the path (relative to the working folder)");
-  const std::string bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  std::string bytes;
+  try {  // a read error surfaces as an exception from the stream buffer (e.g. EISDIR)
+    bytes.assign(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
+  } catch (const std::exception& e) {
+    throw Error(VFE_ERROR_IO, "reading mesh file '" + path + "' failed (" + e.what() + "); check that it is a readable file");
+  }
   if (f.bad()) throw Error(VFE_ERROR_IO, "reading mesh file '" + path + "' failed; check that it is a readable file");
   std::string lower = path;
   for (char& c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));

@@ -1101,3 +1101,16 @@ TEST(PolyMeshReader, DecreasingCompactFaceOffsetsAreRefused) {
   write_binary<std::int64_t>(t.path, d);
   expect_error([&] { vfe::read_polymesh(t.path); }, VFE_ERROR_INVALID_ARGUMENT, {"faces", "face offset 2", "decrease"});
 }
+
+// A folder where a polyMesh file should be is an I/O error with a message, not an
+// internal one.
+TEST(PolyMeshReader, FolderInPlaceOfAFileIsAnIoError) {
+  TempDir t;
+  write_ascii(t.path, block_mesh({nodes(1, 0, 1), nodes(1, 0, 1), nodes(1, 0, 1)}));
+  fs::remove(t.path / "owner");
+  fs::create_directories(t.path / "owner");
+  expect_error([&] { vfe::read_polymesh(t.path); }, VFE_ERROR_IO, {"owner", "not a regular file"});
+  vfe_engine* e = nullptr;
+  EXPECT_EQ(vfe_create_polymesh(t.path.string().c_str(), &e), VFE_ERROR_IO);
+  EXPECT_EQ(e, nullptr);
+}

@@ -87,6 +87,10 @@ FileText load(const fs::path& dir, const std::string& name) {
   const fs::path gz = dir / (name + ".gz");
   if (fs::is_regular_file(plain, ec)) return {plain, read_plain(plain)};
   if (fs::is_regular_file(gz, ec)) return {gz, read_gzip(gz)};
+  for (const fs::path& p : {plain, gz})
+    if (fs::exists(p, ec))
+      io_error("polyMesh file " + p.string() + " is not a regular file (a folder?); it must be the " + name +
+               " file written by blockMesh or snappyHexMesh");
   io_error("polyMesh file '" + name + "' not found in " + dir.string() + " (looked for " + name + " and " + name +
            ".gz); give an OpenFOAM case folder (with constant/polyMesh) or its constant/polyMesh folder, which "
            "needs points, faces, owner, neighbour and boundary (written by blockMesh or snappyHexMesh)");
