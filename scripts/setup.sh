@@ -6,7 +6,13 @@ cd "$(dirname "$0")/.."
 preset="${1:-release}"
 
 packages=(g++ cmake ninja-build pkg-config libtbb-dev libeigen3-dev libnanoflann-dev libspdlog-dev
-          libyaml-cpp-dev libcli11-dev zlib1g-dev libgtest-dev libbenchmark-dev python3-matplotlib)
+          libyaml-cpp-dev libcli11-dev zlib1g-dev libgtest-dev libbenchmark-dev python3-matplotlib
+          pybind11-dev python3-pybind11 python3-numpy python3-pytest)
+# LAMMPS for examples/lammps_pour.py, where the distribution has it (liblammps-dev gives the
+# liblammps.so that the Python module loads).
+for p in python3-lammps liblammps-dev; do
+  apt-cache show "$p" >/dev/null 2>&1 && packages+=("$p")
+done
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -2,6 +2,7 @@
 #include <vfe/engine.hpp>
 #include <vfe/vfe.h>
 
+#include <atomic>
 #include <new>
 #include <span>
 #include <string>
@@ -9,6 +10,7 @@
 struct vfe_engine {
   std::unique_ptr<vfe::Engine> engine;
   std::string last_error;
+  std::atomic<bool> busy{false};  ///< a call is running on this engine
 };
 
 namespace {
@@ -40,6 +42,22 @@ vfe_status guarded(std::string& error, F&& f) noexcept {
     error = "internal error of unknown kind (please report it)";
     return VFE_ERROR_INTERNAL;
   }
+}
+
+/// Runs f on engine e unless another thread is inside a call on e: then the call is
+/// refused without touching e (its message goes to the calling thread's creation error).
+template <class F>
+vfe_status on_engine(const vfe_engine* e, F&& f) noexcept {
+  auto* engine = const_cast<vfe_engine*>(e);
+  if (engine->busy.exchange(true, std::memory_order_acquire)) {
+    g_creation_error =
+        "this engine is being used by another thread; one engine must not be called from two threads at once "
+        "(use one engine per thread)";
+    return VFE_ERROR_INVALID_ARGUMENT;
+  }
+  const vfe_status s = guarded(engine->last_error, f);
+  engine->busy.store(false, std::memory_order_release);
+  return s;
 }
 
 vfe_status null_argument(std::string& error, const char* what) {
@@ -124,7 +142,7 @@ void vfe_destroy(vfe_engine* e) { delete e; }
 vfe_status vfe_configure(vfe_engine* e, const char* options) {
   if (!e) return null_argument(g_creation_error, "engine");
   if (!options) return null_argument(e->last_error, "options");
-  return guarded(e->last_error, [&] { e->engine->configure(options); });
+  return on_engine(e, [&] { e->engine->configure(options); });
 }
 
 int64_t vfe_cell_count(const vfe_engine* e) { return e ? e->engine->cell_count() : -1; }
@@ -140,7 +158,7 @@ vfe_status vfe_compute(vfe_engine* e, int64_t n, const double* centres, const do
                        const double* orientations, double* solid_volume) {
   if (!e) return null_argument(g_creation_error, "engine");
   if (!solid_volume) return null_argument(e->last_error, "solid_volume");
-  return guarded(e->last_error, [&] {
+  return on_engine(e, [&] {
     vfe::ParticleView view;
     view.n = n;
     view.centres = centres;
@@ -154,7 +172,7 @@ vfe_status vfe_void_fraction(const vfe_engine* e, double* out) {
   if (!e) return null_argument(g_creation_error, "engine");
   auto& error = const_cast<vfe_engine*>(e)->last_error;
   if (!out) return null_argument(error, "out");
-  return guarded(error, [&] { e->engine->void_fraction(std::span<double>(out, e->engine->cell_count())); });
+  return on_engine(e, [&] { e->engine->void_fraction(std::span<double>(out, e->engine->cell_count())); });
 }
 
 const char* vfe_last_error(const vfe_engine* e) { return e ? e->last_error.c_str() : g_creation_error.c_str(); }
@@ -164,7 +182,7 @@ vfe_status vfe_add_shape(vfe_engine* e, const char* spec, int32_t* shape_id) {
   if (!spec) return null_argument(e->last_error, "spec");
   if (!shape_id) return null_argument(e->last_error, "shape_id");
   std::int32_t id = -1;
-  const vfe_status s = guarded(e->last_error, [&] { id = e->engine->add_shape(spec); });
+  const vfe_status s = on_engine(e, [&] { id = e->engine->add_shape(spec); });
   if (s == VFE_OK) *shape_id = id;
   return s;
 }
@@ -174,7 +192,7 @@ vfe_status vfe_compute_shapes(vfe_engine* e, int64_t n, const double* centres, c
   if (!e) return null_argument(g_creation_error, "engine");
   if (!solid_volume) return null_argument(e->last_error, "solid_volume");
   if (n > 0 && !shape_ids) return null_argument(e->last_error, "shape_ids");
-  return guarded(e->last_error, [&] {
+  return on_engine(e, [&] {
     vfe::ParticleView view;
     view.n = n;
     view.centres = centres;
@@ -201,6 +219,94 @@ vfe_status vfe_last_report_value(const vfe_engine* e, const char* key, double* o
   const vfe_status s = guarded(error, [&] { value = e->engine->last_report_value(key); });
   if (s == VFE_OK) *out = value;
   return s;
+}
+
+const char* vfe_method_name(int32_t i) {
+  const auto names = vfe::method_names();
+  return i >= 0 && static_cast<std::size_t>(i) < names.size() ? names[static_cast<std::size_t>(i)].data() : nullptr;
+}
+
+vfe_status vfe_create_polymesh_arrays(int64_t n_points, const double* points, int64_t n_faces,
+                                      const int64_t* face_offsets, const int64_t* face_points, const int64_t* owner,
+                                      int64_t n_internal_faces, const int64_t* neighbour, vfe_engine** out) {
+  if (!out) return null_argument(g_creation_error, "out");
+  vfe::PolyMeshArrays a;
+  a.n_points = n_points;
+  a.points = points;
+  a.n_faces = n_faces;
+  a.face_offsets = face_offsets;
+  a.face_points = face_points;
+  a.owner = owner;
+  a.n_internal_faces = n_internal_faces;
+  a.neighbour = neighbour;
+  return create(a, out);
+}
+
+vfe_status vfe_compute_particles(vfe_engine* e, const vfe_particles* p, double* solid_volume) {
+  if (!e) return null_argument(g_creation_error, "engine");
+  if (!p) return null_argument(e->last_error, "particles");
+  if (!solid_volume) return null_argument(e->last_error, "solid_volume");
+  return on_engine(e, [&] { e->engine->compute(*p, std::span<double>(solid_volume, e->engine->cell_count())); });
+}
+
+vfe_status vfe_weights_size(const vfe_engine* e, int64_t* n_particles, int64_t* n_entries) {
+  if (!e) return null_argument(g_creation_error, "engine");
+  auto& error = const_cast<vfe_engine*>(e)->last_error;
+  if (!n_particles) return null_argument(error, "n_particles");
+  if (!n_entries) return null_argument(error, "n_entries");
+  vfe::Engine::WeightsSize size;
+  const vfe_status s = on_engine(e, [&] { size = e->engine->weights_size(); });
+  if (s == VFE_OK) {
+    *n_particles = size.particles;
+    *n_entries = size.entries;
+  }
+  return s;
+}
+
+vfe_status vfe_weights(const vfe_engine* e, int64_t* offsets, int64_t* cells, double* fractions) {
+  if (!e) return null_argument(g_creation_error, "engine");
+  auto& error = const_cast<vfe_engine*>(e)->last_error;
+  if (!offsets) return null_argument(error, "offsets");
+  return on_engine(e, [&] {
+    const vfe::Engine::WeightsSize size = e->engine->weights_size();
+    if (size.entries > 0 && (!cells || !fractions))
+      throw vfe::Error(VFE_ERROR_INVALID_ARGUMENT, "cells or fractions is NULL; pass arrays of n_entries values");
+    e->engine->weights(std::span<std::int64_t>(offsets, size.particles + 1), std::span<std::int64_t>(cells, size.entries),
+                       std::span<double>(fractions, size.entries));
+  });
+}
+
+vfe_status vfe_deposit(const vfe_engine* e, int32_t components, const double* values, double* out) {
+  if (!e) return null_argument(g_creation_error, "engine");
+  auto& error = const_cast<vfe_engine*>(e)->last_error;
+  if (!out) return null_argument(error, "out");
+  return on_engine(e, [&] {
+    const std::int64_t n = e->engine->weights_size().particles;
+    if (n > 0 && !values) throw vfe::Error(VFE_ERROR_INVALID_ARGUMENT, "values is NULL; pass components per particle");
+    if (components < 1 || components > 64)
+      throw vfe::Error(VFE_ERROR_INVALID_ARGUMENT, "components is " + std::to_string(components) + "; give 1 to 64");
+    e->engine->deposit(components, std::span<const double>(values, n * components),
+                       std::span<double>(out, e->engine->cell_count() * components));
+  });
+}
+
+vfe_status vfe_interpolate(const vfe_engine* e, int32_t components, const double* cell_field, double* out) {
+  if (!e) return null_argument(g_creation_error, "engine");
+  auto& error = const_cast<vfe_engine*>(e)->last_error;
+  if (!cell_field) return null_argument(error, "cell_field");
+  return on_engine(e, [&] {
+    const std::int64_t n = e->engine->weights_size().particles;
+    if (n > 0 && !out) throw vfe::Error(VFE_ERROR_INVALID_ARGUMENT, "out is NULL; pass components per particle");
+    if (components < 1 || components > 64)
+      throw vfe::Error(VFE_ERROR_INVALID_ARGUMENT, "components is " + std::to_string(components) + "; give 1 to 64");
+    e->engine->interpolate(components, std::span<const double>(cell_field, e->engine->cell_count() * components),
+                           std::span<double>(out, n * components));
+  });
+}
+
+vfe_status vfe_set_log_callback(vfe_engine* e, vfe_log_fn fn, void* user) {
+  if (!e) return null_argument(g_creation_error, "engine");
+  return on_engine(e, [&] { e->engine->set_log_callback(fn, user); });
 }
 
 }  // extern "C"

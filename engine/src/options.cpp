@@ -1,7 +1,9 @@
 #include "options.hpp"
 
-#include <vfe/engine.hpp>
+#include <vfe/error.hpp>
 
+#include <algorithm>
+#include <array>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
@@ -14,14 +16,17 @@ namespace vfe {
 
 namespace {
 
-const char* const kKeys =
-    "method, particle_grid, particle_grid_max, template, orientation, outside, threads, deterministic, alpha_min, "
-    "periodic, accumulation, seed, sigma, gamma, superficial_velocity, fluid_dt, log_level, fast_path, rotation_bank, incremental, move_tolerance, "
-    "touched_only";
+/// An option's value as quoted in a message: long values are cut, so a 4 MiB option string
+/// never becomes a 4 MiB message.
+std::string quoted(std::string_view v) {
+  constexpr std::size_t kMax = 64;
+  if (v.size() <= kMax) return "'" + std::string(v) + "'";
+  return "'" + std::string(v.substr(0, kMax)) + "...' (" + std::to_string(v.size()) + " characters)";
+}
 
 [[noreturn]] void bad(std::string_view key, std::string_view value, std::string_view expected) {
-  throw Error(VFE_ERROR_INVALID_ARGUMENT, "option '" + std::string(key) + "': bad value '" +
-                                              std::string(value) + "'; expected " + std::string(expected));
+  throw Error(VFE_ERROR_INVALID_ARGUMENT,
+              "option '" + std::string(key) + "': bad value " + quoted(value) + "; expected " + std::string(expected));
 }
 
 std::int64_t parse_int(std::string_view key, std::string_view v, std::int64_t lo, std::int64_t hi) {
@@ -32,11 +37,12 @@ std::int64_t parse_int(std::string_view key, std::string_view v, std::int64_t lo
   return x;
 }
 
+bool parse_bool(std::string_view key, std::string_view v) { return parse_int(key, v, 0, 1) == 1; }
+
 double parse_double(std::string_view key, std::string_view v, double lo, double hi) {
-  std::string s(v);
-  char* end = nullptr;
-  const double x = std::strtod(s.c_str(), &end);
-  if (s.empty() || end != s.c_str() + s.size() || !std::isfinite(x) || x < lo || x > hi) {
+  double x = 0;
+  auto [p, ec] = std::from_chars(v.data(), v.data() + v.size(), x);
+  if (ec != std::errc() || p != v.data() + v.size() || !std::isfinite(x) || x < lo || x > hi) {
     std::ostringstream e;
     e << "a number from " << lo << " to " << hi;
     bad(key, v, e.str());
@@ -75,6 +81,13 @@ E parse_enum(std::string_view key, std::string_view v, const std::pair<const cha
   bad(key, v, "one of " + names);
 }
 
+template <class E, std::size_t N>
+const char* name_of(E e, const std::pair<const char*, E> (&table)[N]) {
+  for (const auto& [name, value] : table)
+    if (value == e) return name;
+  return "?";
+}
+
 constexpr std::pair<const char*, Method> kMethods[] = {
     {"direct", Method::direct},           {"pmm", Method::pmm},
     {"exact", Method::exact},             {"divided", Method::divided},
@@ -90,78 +103,125 @@ constexpr std::pair<const char*, Outside> kOutside[] = {
 constexpr std::pair<const char*, Accumulation> kAccumulation[] = {
     {"auto", Accumulation::automatic}, {"private", Accumulation::privatised},
     {"atomic", Accumulation::atomic}, {"sorted", Accumulation::sorted}};
+constexpr const char* kLogLevels[] = {"trace", "debug", "info", "warn", "error", "off"};
 
-template <class E, std::size_t N>
-const char* name_of(E e, const std::pair<const char*, E> (&table)[N]) {
-  for (const auto& [name, value] : table)
-    if (value == e) return name;
-  return "?";
+std::string print_bool(bool b) { return b ? "1" : "0"; }
+
+/// One option: its key, how its value is read into Options and printed back.
+struct OptionSpec {
+  const char* key;
+  void (*parse)(Options&, std::string_view key, std::string_view value);
+  std::string (*print)(const Options&);
+};
+
+// The options, in the order format_options prints them. A new option is one row here.
+const OptionSpec kOptions[] = {
+    {"method", [](Options& o, std::string_view k, std::string_view v) { o.method = parse_enum(k, v, kMethods); },
+     [](const Options& o) { return std::string(name_of(o.method, kMethods)); }},
+    {"particle_grid",
+     [](Options& o, std::string_view k, std::string_view v) {
+       o.particle_grid = v == "auto" ? 0 : parse_int(k, v, 1, 10'000'000);
+     },
+     [](const Options& o) { return o.particle_grid == 0 ? std::string("auto") : std::to_string(o.particle_grid); }},
+    {"particle_grid_max",
+     [](Options& o, std::string_view k, std::string_view v) { o.particle_grid_max = parse_int(k, v, 1, 10'000'000); },
+     [](const Options& o) { return std::to_string(o.particle_grid_max); }},
+    {"template",
+     [](Options& o, std::string_view k, std::string_view v) { o.template_family = parse_enum(k, v, kTemplates); },
+     [](const Options& o) { return std::string(name_of(o.template_family, kTemplates)); }},
+    {"orientation",
+     [](Options& o, std::string_view k, std::string_view v) { o.orientation = parse_enum(k, v, kOrientations); },
+     [](const Options& o) { return std::string(name_of(o.orientation, kOrientations)); }},
+    {"outside", [](Options& o, std::string_view k, std::string_view v) { o.outside = parse_enum(k, v, kOutside); },
+     [](const Options& o) { return std::string(name_of(o.outside, kOutside)); }},
+    {"outside_tolerance",
+     [](Options& o, std::string_view k, std::string_view v) { o.outside_tolerance = parse_double(k, v, 0.0, 1e30); },
+     [](const Options& o) { return number_text(o.outside_tolerance); }},
+    {"threads",
+     [](Options& o, std::string_view k, std::string_view v) { o.threads = static_cast<int>(parse_int(k, v, 0, 4096)); },
+     [](const Options& o) { return std::to_string(o.threads); }},
+    {"deterministic", [](Options& o, std::string_view k, std::string_view v) { o.deterministic = parse_bool(k, v); },
+     [](const Options& o) { return print_bool(o.deterministic); }},
+    {"alpha_min", [](Options& o, std::string_view k, std::string_view v) { o.alpha_min = parse_double(k, v, 0.0, 1.0); },
+     [](const Options& o) { return number_text(o.alpha_min); }},
+    {"periodic",
+     [](Options& o, std::string_view k, std::string_view v) {
+       unsigned mask = 0;
+       if (v != "none") {
+         if (v.empty() || v.size() > 3) bad(k, v, "none or a combination of x, y, z (e.g. xy)");
+         for (char c : v) {
+           if (c != 'x' && c != 'y' && c != 'z') bad(k, v, "none or a combination of x, y, z (e.g. xy)");
+           mask |= 1u << (c - 'x');
+         }
+       }
+       o.periodic = mask;
+     },
+     [](const Options& o) {
+       if (!o.periodic) return std::string("none");
+       std::string axes;
+       for (int d = 0; d < 3; ++d)
+         if ((o.periodic >> d) & 1u) axes += char('x' + d);
+       return axes;
+     }},
+    {"accumulation",
+     [](Options& o, std::string_view k, std::string_view v) { o.accumulation = parse_enum(k, v, kAccumulation); },
+     [](const Options& o) { return std::string(name_of(o.accumulation, kAccumulation)); }},
+    {"seed",
+     [](Options& o, std::string_view k, std::string_view v) {
+       o.seed = static_cast<std::uint64_t>(parse_int(k, v, 0, std::numeric_limits<std::int64_t>::max()));
+     },
+     [](const Options& o) { return std::to_string(o.seed); }},
+    {"sigma", [](Options& o, std::string_view k, std::string_view v) { o.sigma = parse_positive(k, v, 100.0); },
+     [](const Options& o) { return number_text(o.sigma); }},
+    {"gamma", [](Options& o, std::string_view k, std::string_view v) { o.gamma = parse_positive(k, v, 100.0); },
+     [](const Options& o) { return number_text(o.gamma); }},
+    {"superficial_velocity",
+     [](Options& o, std::string_view k, std::string_view v) { o.superficial_velocity = parse_double(k, v, 0.0, 1e30); },
+     [](const Options& o) { return number_text(o.superficial_velocity); }},
+    {"fluid_dt", [](Options& o, std::string_view k, std::string_view v) { o.fluid_dt = parse_double(k, v, 0.0, 1e30); },
+     [](const Options& o) { return number_text(o.fluid_dt); }},
+    {"log_level",
+     [](Options& o, std::string_view k, std::string_view v) {
+       if (std::find(std::begin(kLogLevels), std::end(kLogLevels), v) == std::end(kLogLevels))
+         bad(k, v, "one of trace, debug, info, warn, error, off");
+       o.log_level = std::string(v);
+     },
+     [](const Options& o) { return o.log_level; }},
+    {"fast_path", [](Options& o, std::string_view k, std::string_view v) { o.fast_path = parse_bool(k, v); },
+     [](const Options& o) { return print_bool(o.fast_path); }},
+    {"rotation_bank", [](Options& o, std::string_view k, std::string_view v) { o.rotation_bank = parse_bool(k, v); },
+     [](const Options& o) { return print_bool(o.rotation_bank); }},
+    {"incremental", [](Options& o, std::string_view k, std::string_view v) { o.incremental = parse_bool(k, v); },
+     [](const Options& o) { return print_bool(o.incremental); }},
+    {"move_tolerance",
+     [](Options& o, std::string_view k, std::string_view v) { o.move_tolerance = parse_double(k, v, 0.0, 1e30); },
+     [](const Options& o) { return number_text(o.move_tolerance); }},
+    {"touched_only", [](Options& o, std::string_view k, std::string_view v) { o.touched_only = parse_bool(k, v); },
+     [](const Options& o) { return print_bool(o.touched_only); }},
+    {"weights", [](Options& o, std::string_view k, std::string_view v) { o.weights = parse_bool(k, v); },
+     [](const Options& o) { return print_bool(o.weights); }},
+    {"smoothing_length",
+     [](Options& o, std::string_view k, std::string_view v) { o.smoothing_length = parse_double(k, v, 0.0, 1e30); },
+     [](const Options& o) { return number_text(o.smoothing_length); }},
+};
+
+const OptionSpec* find_option(std::string_view key) {
+  for (const OptionSpec& spec : kOptions)
+    if (key == spec.key) return &spec;
+  return nullptr;
 }
 
-void apply(Options& o, std::string_view key, std::string_view v) {
-  if (key == "method") {
-    o.method = parse_enum(key, v, kMethods);
-  } else if (key == "particle_grid") {
-    o.particle_grid = v == "auto" ? 0 : parse_int(key, v, 1, 10'000'000);
-  } else if (key == "particle_grid_max") {
-    o.particle_grid_max = parse_int(key, v, 1, 10'000'000);
-  } else if (key == "template") {
-    o.template_family = parse_enum(key, v, kTemplates);
-  } else if (key == "orientation") {
-    o.orientation = parse_enum(key, v, kOrientations);
-  } else if (key == "outside") {
-    o.outside = parse_enum(key, v, kOutside);
-  } else if (key == "threads") {
-    o.threads = static_cast<int>(parse_int(key, v, 0, 4096));
-  } else if (key == "deterministic") {
-    o.deterministic = parse_int(key, v, 0, 1) == 1;
-  } else if (key == "alpha_min") {
-    o.alpha_min = parse_double(key, v, 0.0, 1.0);
-  } else if (key == "periodic") {
-    unsigned mask = 0;
-    if (v != "none") {
-      for (char c : v) {
-        if (c != 'x' && c != 'y' && c != 'z') bad(key, v, "none or a combination of x, y, z (e.g. xy)");
-        mask |= 1u << (c - 'x');
-      }
-    }
-    o.periodic = mask;
-  } else if (key == "accumulation") {
-    o.accumulation = parse_enum(key, v, kAccumulation);
-  } else if (key == "seed") {
-    o.seed = static_cast<std::uint64_t>(parse_int(key, v, 0, std::numeric_limits<std::int64_t>::max()));
-  } else if (key == "sigma") {
-    o.sigma = parse_positive(key, v, 100.0);
-  } else if (key == "gamma") {
-    o.gamma = parse_positive(key, v, 100.0);
-  } else if (key == "superficial_velocity") {
-    o.superficial_velocity = parse_double(key, v, 0.0, 1e30);
-  } else if (key == "fluid_dt") {
-    o.fluid_dt = parse_double(key, v, 0.0, 1e30);
-  } else if (key == "log_level") {
-    if (v != "trace" && v != "debug" && v != "info" && v != "warn" && v != "error" && v != "off")
-      bad(key, v, "one of trace, debug, info, warn, error, off");
-    o.log_level = std::string(v);
-  } else if (key == "fast_path") {
-    o.fast_path = parse_int(key, v, 0, 1) == 1;
-  } else if (key == "rotation_bank") {
-    o.rotation_bank = parse_int(key, v, 0, 1) == 1;
-  } else if (key == "incremental") {
-    o.incremental = parse_int(key, v, 0, 1) == 1;
-  } else if (key == "move_tolerance") {
-    o.move_tolerance = parse_double(key, v, 0.0, 1e30);
-  } else if (key == "touched_only") {
-    o.touched_only = parse_int(key, v, 0, 1) == 1;
-  } else {
-    throw Error(VFE_ERROR_INVALID_ARGUMENT,
-                "unknown option '" + std::string(key) + "'; known options: " + kKeys);
-  }
+[[noreturn]] void unknown_option(std::string_view key) {
+  std::string known;
+  for (const OptionSpec& spec : kOptions) known += (known.empty() ? "" : ", ") + std::string(spec.key);
+  throw Error(VFE_ERROR_INVALID_ARGUMENT, "unknown option " + quoted(key) + "; known options: " + known);
 }
 
 }  // namespace
 
 Options parse_options(std::string_view text, const Options& base) {
   Options o = base;
+  std::vector<std::string_view> seen;
   std::size_t pos = 0;
   while (pos < text.size()) {
     while (pos < text.size() && std::isspace(static_cast<unsigned char>(text[pos]))) ++pos;
@@ -172,8 +232,16 @@ Options parse_options(std::string_view text, const Options& base) {
     const std::size_t eq = token.find('=');
     if (eq == std::string_view::npos || eq == 0 || eq + 1 == token.size())
       throw Error(VFE_ERROR_INVALID_ARGUMENT,
-                  "option '" + std::string(token) + "' is not of the form key=value (e.g. method=pmm)");
-    apply(o, token.substr(0, eq), token.substr(eq + 1));
+                  "option " + quoted(token) + " is not of the form key=value (e.g. method=pmm)");
+    const std::string_view key = token.substr(0, eq);
+    const OptionSpec* spec = find_option(key);
+    if (!spec) unknown_option(key);
+    // A key given twice is a mistake a host would not see if the last one silently won.
+    if (std::find(seen.begin(), seen.end(), key) != seen.end())
+      throw Error(VFE_ERROR_INVALID_ARGUMENT,
+                  "option '" + std::string(key) + "' is given twice; give each option once per call");
+    seen.push_back(key);
+    spec->parse(o, key, token.substr(eq + 1));
     pos = end;
   }
   return o;
@@ -181,46 +249,26 @@ Options parse_options(std::string_view text, const Options& base) {
 
 std::string_view to_string(Method m) { return name_of(m, kMethods); }
 
+std::span<const std::string_view> method_names() {
+  static const auto names = [] {
+    std::array<std::string_view, std::size(kMethods)> n{};
+    for (std::size_t i = 0; i < n.size(); ++i) n[i] = kMethods[i].first;
+    return n;
+  }();
+  return names;
+}
+
 std::string option_value(const Options& o, std::string_view key) {
-  if (key == "method") return name_of(o.method, kMethods);
-  if (key == "particle_grid") return o.particle_grid == 0 ? "auto" : std::to_string(o.particle_grid);
-  if (key == "particle_grid_max") return std::to_string(o.particle_grid_max);
-  if (key == "template") return name_of(o.template_family, kTemplates);
-  if (key == "orientation") return name_of(o.orientation, kOrientations);
-  if (key == "outside") return name_of(o.outside, kOutside);
-  if (key == "threads") return std::to_string(o.threads);
-  if (key == "deterministic") return o.deterministic ? "1" : "0";
-  if (key == "alpha_min") return number_text(o.alpha_min);
-  if (key == "sigma") return number_text(o.sigma);
-  if (key == "gamma") return number_text(o.gamma);
-  if (key == "superficial_velocity") return number_text(o.superficial_velocity);
-  if (key == "fluid_dt") return number_text(o.fluid_dt);
-  if (key == "periodic") {
-    if (!o.periodic) return "none";
-    std::string axes;
-    for (int d = 0; d < 3; ++d)
-      if ((o.periodic >> d) & 1u) axes += char('x' + d);
-    return axes;
-  }
-  if (key == "accumulation") return name_of(o.accumulation, kAccumulation);
-  if (key == "seed") return std::to_string(o.seed);
-  if (key == "log_level") return o.log_level;
-  if (key == "fast_path") return o.fast_path ? "1" : "0";
-  if (key == "rotation_bank") return o.rotation_bank ? "1" : "0";
-  if (key == "incremental") return o.incremental ? "1" : "0";
-  if (key == "move_tolerance") return number_text(o.move_tolerance);
-  if (key == "touched_only") return o.touched_only ? "1" : "0";
-  throw Error(VFE_ERROR_INVALID_ARGUMENT, "unknown option '" + std::string(key) + "'; known options: " + kKeys);
+  const OptionSpec* spec = find_option(key);
+  if (!spec) unknown_option(key);
+  return spec->print(o);
 }
 
 std::string format_options(const Options& o) {
   std::string out;
-  for (const char* key : {"method", "particle_grid", "particle_grid_max", "template", "orientation", "outside", "threads",
-                          "deterministic", "alpha_min", "periodic", "accumulation", "seed", "sigma", "gamma",
-                          "superficial_velocity", "fluid_dt", "log_level", "fast_path", "rotation_bank",
-                          "incremental", "move_tolerance", "touched_only"}) {
+  for (const OptionSpec& spec : kOptions) {
     if (!out.empty()) out += ' ';
-    out += std::string(key) + "=" + option_value(o, key);
+    out += std::string(spec.key) + "=" + spec.print(o);
   }
   return out;
 }

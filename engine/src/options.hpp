@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cstdint>
+#include <span>
 #include <string>
 #include <string_view>
 
@@ -27,6 +28,9 @@ struct Options {
   TemplateFamily template_family = TemplateFamily::fibonacci;
   Orientation orientation = Orientation::random;
   Outside outside = Outside::nearest;
+  /// outside=error: how far (in the host's length unit) a particle may reach beyond the
+  /// mesh before it is an error; DEM wall contacts overlap a wall by micrometres.
+  double outside_tolerance = 0;
   int threads = 0;  ///< 0 = all
   bool deterministic = false;
   double alpha_min = 0;
@@ -54,6 +58,10 @@ struct Options {
   double move_tolerance = 0;
   /// Clear, merge and sum only the cells particles touch instead of the whole field.
   bool touched_only = false;
+  /// Keep per particle its cells and the fraction of its volume in each (vfe_weights).
+  bool weights = false;
+  /// Length of the conservative diffusion of the solid volume over the face graph; 0 = off.
+  double smoothing_length = 0;
 };
 
 /// Applies "key=value ..." on top of base; throws Error (invalid argument naming the key,
@@ -66,5 +74,7 @@ std::string format_options(const Options& o);
 std::string option_value(const Options& o, std::string_view key);
 
 std::string_view to_string(Method m);
+/// Every method's name, in the order of Method (also in the public engine.hpp).
+std::span<const std::string_view> method_names();
 
 }  // namespace vfe

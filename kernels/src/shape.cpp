@@ -7,6 +7,7 @@
 #include <map>
 #include <numbers>
 #include <numeric>
+#include <random>
 #include <sstream>
 #include <stdexcept>
 
@@ -121,6 +122,12 @@ void merge_intervals(std::vector<std::pair<double, double>>& v) {
       v[w++] = v[i];
   }
   v.resize(w);
+}
+
+/// The z-intervals where the vertical line through (x, y) lies inside the closed mesh.
+void mesh_column(const TriangleMesh& mesh, double x, double y, std::vector<std::pair<double, double>>& out) {
+  std::vector<double> z;
+  mesh_column(mesh, AllParts{mesh.triangles.size()}, x, y, out, z);
 }
 
 }  // namespace
@@ -386,8 +393,7 @@ void Shape::column(double x, double y, std::vector<std::pair<double, double>>& o
       clump_column(spheres_, AllParts{spheres_.size()}, x, y, out);
       break;
     case Kind::mesh: {
-      std::vector<double> z;
-      mesh_column(mesh_, AllParts{mesh_.triangles.size()}, x, y, out, z);
+      mesh_column(mesh_, x, y, out);
       break;
     }
   }
@@ -466,7 +472,7 @@ void for_each_part_columns(const Shape& shape, const SampleGrid& g, F&& f) {
       cover(q[0] - q[3], q[0] + q[3], q[1] - q[3], q[1] + q[3], std::int64_t(s));
     }
   } else {
-    const TriangleMesh& mesh = shape.triangle_mesh();
+    const TriangleMesh& mesh = shape.mesh();
     for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
       const Eigen::Vector3i& tri = mesh.triangles[t];
       const Eigen::Vector3d &a = mesh.vertices[tri[0]], &b = mesh.vertices[tri[1]], &c = mesh.vertices[tri[2]];
@@ -549,7 +555,7 @@ SampledBody sample_shape(const Shape& shape, std::size_t target) {
     if (shape.kind() == Shape::Kind::clump)
       clump_column(shape.spheres(), parts, x_of(i), y_of(j), col);
     else
-      mesh_column(shape.triangle_mesh(), parts, x_of(i), y_of(j), col, z);
+      mesh_column(shape.mesh(), parts, x_of(i), y_of(j), col, z);
     add_column_samples(g, x_of(i), y_of(j), col, s);
     b = e;
   }
@@ -581,6 +587,41 @@ void bisect(std::vector<Eigen::Vector3d>& pts, std::size_t b, std::size_t e, int
   bisect(pts, mid, e, n - n1, total, t);
 }
 
+/// Moves the template's centre of volume onto the shape's exact centroid; sets its reach.
+void centre_on_centroid(const Shape& shape, ParticleTemplate& t) {
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (std::size_t i = 0; i < t.size(); ++i) mean += t.fractions[i] * t.points[i];
+  const Eigen::Vector3d shift = shape.centroid() - mean;
+  t.reach = 0;
+  for (auto& p : t.points) {
+    p += shift;
+    t.reach = std::max(t.reach, p.norm());
+  }
+}
+
+/// Cuts the samples into n parts by bisection (at most a twentieth of the samples), one
+/// sub-element at each part's centroid; the template's centre goes onto the exact
+/// centroid. With `turn` the samples are in a turned lattice's frame (body = turn * q)
+/// and every part gets exactly 1/n; without, its share of the samples.
+ParticleTemplate partition_samples(const Shape& shape, std::vector<Eigen::Vector3d>& samples, int n,
+                                   const Eigen::Matrix3d* turn) {
+  ParticleTemplate t;
+  t.family = "shape";
+  if (samples.empty()) {
+    t.points.push_back(shape.centroid());
+    t.fractions.push_back(1.0);
+  } else {
+    const int parts = static_cast<int>(std::min<std::size_t>(std::size_t(n), std::max<std::size_t>(1, samples.size() / 20)));
+    bisect(samples, 0, samples.size(), parts, double(samples.size()), t);
+    if (turn) {
+      for (auto& p : t.points) p = *turn * p;
+      for (auto& f : t.fractions) f = 1.0 / double(t.size());
+    }
+  }
+  centre_on_centroid(shape, t);
+  return t;
+}
+
 }  // namespace
 
 ParticleTemplate make_shape_template(const Shape& shape, int n) {
@@ -604,25 +645,63 @@ ParticleTemplate make_shape_template(const Shape& shape, int n) {
 ParticleTemplate make_shape_template(const Shape& shape, int n, std::vector<Eigen::Vector3d> samples) {
   n = std::max(n, 1);
   if (shape.kind() == Shape::Kind::sphere || shape.kind() == Shape::Kind::ellipsoid) return make_shape_template(shape, n);
-  ParticleTemplate t;
-  t.family = "shape";
-  if (samples.empty()) {
-    t.points.push_back(shape.centroid());
-    t.fractions.push_back(1.0);
-  } else {
-    const int parts = static_cast<int>(std::min<std::size_t>(std::size_t(n), std::max<std::size_t>(1, samples.size() / 20)));
-    bisect(samples, 0, samples.size(), parts, double(samples.size()), t);
+  return partition_samples(shape, samples, n, nullptr);
+}
+
+ParticleTemplate make_shape_template_variant(const Shape& shape, int n, std::uint32_t variant,
+                                             std::size_t samples_per_element) {
+  n = std::max(n, 1);
+  if (variant == 0) return make_shape_template(shape, n);
+  // Fixed per variant: a rotation of the partition about the shape's own axes, and a
+  // shift of the sampling lattice by a fraction of its spacing.
+  constexpr std::uint64_t kSalt = 0x5eed5a3b1e5ULL;
+  const Eigen::Matrix3d turn = random_rotation(variant, kSalt);
+  if (shape.kind() == Shape::Kind::sphere || shape.kind() == Shape::Kind::ellipsoid) {
+    ParticleTemplate t = make_fibonacci_template(n);
+    t.family = shape.kind() == Shape::Kind::sphere ? "fibonacci" : "ellipsoid";
+    for (auto& p : t.points) p = (turn * p).cwiseProduct(shape.axes());
+    for (auto& f : t.fractions) f = 1.0 / double(n);
+    centre_on_centroid(shape, t);
+    return t;
   }
-  // Move the template's centre of volume onto the exact centroid.
-  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-  for (std::size_t i = 0; i < t.size(); ++i) mean += t.fractions[i] * t.points[i];
-  const Eigen::Vector3d shift = shape.centroid() - mean;
-  t.reach = 0;
-  for (auto& p : t.points) {
-    p += shift;
-    t.reach = std::max(t.reach, p.norm());
+  const std::size_t target = std::clamp<std::size_t>(samples_per_element * std::size_t(n), 200000, 4000000);
+  std::mt19937_64 rng(variant ^ kSalt);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const Eigen::Vector3d shift(unit(rng), unit(rng), unit(rng));
+  // Samples in the lattice's frame q (the body point is turn * q).
+  Eigen::AlignedBox3d frame_box;
+  for (int k = 0; k < 8; ++k)
+    frame_box.extend(Eigen::Vector3d(turn.transpose() * shape.bounds().corner(static_cast<Eigen::AlignedBox3d::CornerType>(k))));
+  const double h = std::cbrt(shape.volume() / double(target));
+  const Eigen::Vector3d lo = frame_box.min() - h * shift;
+  const Eigen::Vector3i count = ((frame_box.max() - lo) / h).array().ceil().cast<int>().max(1);
+  std::vector<Eigen::Vector3d> samples;
+  samples.reserve(target + target / 4);
+  TriangleMesh turned;
+  if (shape.kind() == Shape::Kind::mesh) {
+    turned = shape.mesh();
+    for (auto& v : turned.vertices) v = turn.transpose() * v;
   }
-  return t;
+  std::vector<std::pair<double, double>> col;
+  for (int j = 0; j < count[1]; ++j) {
+    const double y = lo[1] + (j + 0.5) * h;
+    for (int i = 0; i < count[0]; ++i) {
+      const double x = lo[0] + (i + 0.5) * h;
+      if (shape.kind() == Shape::Kind::mesh) {
+        mesh_column(turned, x, y, col);
+        for (const auto& [zlo, zhi] : col) {
+          const long k0 = long(std::ceil((zlo - lo[2]) / h - 0.5)), k1 = long(std::floor((zhi - lo[2]) / h - 0.5));
+          for (long k = k0; k <= k1; ++k) samples.emplace_back(x, y, lo[2] + (double(k) + 0.5) * h);
+        }
+        continue;
+      }
+      for (int k = 0; k < count[2]; ++k) {
+        const Eigen::Vector3d q(x, y, lo[2] + (k + 0.5) * h);
+        if (shape.contains(turn * q)) samples.push_back(q);
+      }
+    }
+  }
+  return partition_samples(shape, samples, n, &turn);
 }
 
 }  // namespace vfe::kernels

@@ -160,7 +160,7 @@ std::string polymesh_config(const std::string& mesh_entries) {
          "  - pmm\n"
          "  - {method: pmm, options: \"particle_grid=27\", label: pmm_27}\n"
          "  - exact\n"
-         "  - gaussian\n"
+         "  - trilinear\n"
          "reference: {method: pmm, options: \"particle_grid=1000\", label: pmm_ref}\n"
          "threads: 1\n"
          "repeats: 1\n"
@@ -213,7 +213,7 @@ TEST(PolyMeshRun, BoxUniformEndToEnd) {
     EXPECT_EQ(row.at("nx"), "");
     EXPECT_EQ(row.at("particles"), "12");
     const std::string m = row.at("method");
-    if (m == "gaussian") {  // not available on a polyMesh: a skipped row with the reason
+    if (m == "trilinear") {  // not available on a polyMesh: a skipped row with the reason
       EXPECT_EQ(row.at("status"), "skipped");
       EXPECT_NE(row.at("note").find("polyMesh"), std::string::npos) << row.at("note");
       continue;
@@ -236,7 +236,7 @@ TEST(PolyMeshRun, BoxUniformEndToEnd) {
   // The table says the cell size is a mean, names the reference and the skipped method.
   const std::string t = table.str();
   for (const char* s : {"mesh box:", "polyMesh of 3000 cells", "mean chi", "reference pmm_ref (pmm particle_grid=1000)",
-                        "pmm_ref *", "gaussian skipped:"})
+                        "pmm_ref *", "trilinear skipped:"})
     EXPECT_NE(t.find(s), std::string::npos) << s << "\n" << t;
 
   // The OpenFOAM fields: one per method, and plain voidfraction = the default method (pmm).
@@ -273,7 +273,7 @@ TEST(PolyMeshRun, BoxUniformEndToEnd) {
       EXPECT_LT(max_diff, 1e-12);
       EXPECT_LT(min_eps, 0.95);  // the particles are there
     }
-    EXPECT_FALSE(fs::exists(time_dir / "voidfraction_gaussian"));
+    EXPECT_FALSE(fs::exists(time_dir / "voidfraction_trilinear"));
     const FoamField plain = parse_foam_field(time_dir / "voidfraction");
     EXPECT_EQ(plain.header.at("object"), "voidfraction");
     EXPECT_EQ(plain.values, parse_foam_field(time_dir / "voidfraction_pmm").values);
@@ -290,7 +290,7 @@ TEST(PolyMeshRun, BoxUniformEndToEnd) {
     for (const char* name :
          {"voidfraction_pmm", "solid_volume_pmm", "voidfraction_pmm_ref", "voidfraction_exact", "faces", "faceoffsets"})
       EXPECT_NE(xml.find("Name=\"" + std::string(name) + "\""), std::string::npos) << name;
-    EXPECT_EQ(xml.find("voidfraction_gaussian"), std::string::npos);
+    EXPECT_EQ(xml.find("voidfraction_trilinear"), std::string::npos);
   }
 }
 

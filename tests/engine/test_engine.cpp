@@ -312,7 +312,7 @@ TEST(Engine, AutoParticleGridFollowsTheFittedStabilityFormula) {
     EXPECT_GE(n, previous) << chi;
     previous = n;
   }
-  // Capped at particle_grid_max (20000 by default; the formula asks ~32000 at chi = 0.5).
+  // Capped at particle_grid_max (20000 by default; the formula asks ~35000 at chi = 0.5).
   EXPECT_LE(e.particle_grid_for(1.0, 0.5), 20000);
   EXPECT_GT(e.particle_grid_for(1.0, 0.5), 19000);
   e.configure("particle_grid_max=100");

@@ -1,6 +1,8 @@
 // Shapes: exact volumes against independent integration and closed forms; templates.
 #include <vfe/kernels/shape.hpp>
 
+#include "cells.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -34,12 +36,7 @@ TriangleMesh unit_cube() {
   return m;
 }
 
-TriangleMesh tetrahedron() {
-  TriangleMesh m;
-  m.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
-  m.triangles = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
-  return m;
-}
+TriangleMesh tetrahedron() { return vfe::test::tetrahedron_mesh(); }
 
 /// Volume of {(x, y): g(x, y) < 1} x [-h(x, y), h(x, y)] by a fine 2-D midpoint rule.
 double superquadric_volume_2d(double a, double b, double c, double e1, double e2) {

@@ -1,6 +1,7 @@
 // C++ facade of the vfe engine. The C API (vfe.h) is a thin catch-all layer over this.
 #pragma once
 
+#include <vfe/error.hpp>
 #include <vfe/vfe.h>
 
 #include <array>
@@ -13,18 +14,6 @@
 #include <vector>
 
 namespace vfe {
-
-/// A user-facing failure: a status for the C API and a message that says what was
-/// wrong and how to fix it.
-class Error : public std::runtime_error {
- public:
-  Error(vfe_status status, const std::string& message)
-      : std::runtime_error(message), status_(status) {}
-  vfe_status status() const noexcept { return status_; }
-
- private:
-  vfe_status status_;
-};
 
 /// A uniform Cartesian grid: cells[d] cells of size spacing[d] from origin;
 /// cell (i, j, k) has index i + nx*(j + ny*k).
@@ -47,6 +36,24 @@ struct PolyMeshSpec {
 struct RectilinearGridSpec {
   std::array<std::vector<double>, 3> nodes;
 };
+
+/// A face-based mesh in the host's memory (vfe_create_polymesh_arrays): ordered as OpenFOAM
+/// orders it, internal faces first (area vector from owner to neighbour), then boundary
+/// faces; cells = 1 + max(owner). The arrays are copied; the engine equals the one
+/// PolyMeshSpec gives for the same mesh.
+struct PolyMeshArrays {
+  std::int64_t n_points = 0;
+  const double* points = nullptr;             ///< 3 per point
+  std::int64_t n_faces = 0;
+  const std::int64_t* face_offsets = nullptr; ///< n_faces + 1, from 0
+  const std::int64_t* face_points = nullptr;  ///< face_offsets[n_faces]
+  const std::int64_t* owner = nullptr;        ///< n_faces
+  std::int64_t n_internal_faces = 0;
+  const std::int64_t* neighbour = nullptr;    ///< n_internal_faces
+};
+
+/// Every method's name ("direct", "pmm", ...), in a fixed order.
+std::span<const std::string_view> method_names();
 
 /// Zero-copy view of the host's particle arrays. Strides count doubles between
 /// consecutive particles (0 = packed: 3 for centres, 1 for radii, 4 for orientations).
@@ -76,6 +83,9 @@ class Engine {
   explicit Engine(const PolyMeshSpec& mesh);
   /// Builds an engine on a rectilinear grid; throws Error naming a bad node.
   explicit Engine(const RectilinearGridSpec& grid);
+  /// Builds an engine on a face-based mesh from the host's memory; throws Error naming
+  /// the bad face, label or cell.
+  explicit Engine(const PolyMeshArrays& mesh);
   ~Engine();
   Engine(const Engine&) = delete;
   Engine& operator=(const Engine&) = delete;
@@ -107,6 +117,22 @@ class Engine {
   /// Solid volume per cell of the given spheres into out (overwritten). Throws Error;
   /// out is untouched on failure.
   void compute(const ParticleView& particles, std::span<double> out);
+  /// The same from the C API's view (byte strides, optional host ids).
+  void compute(const vfe_particles& particles, std::span<double> out);
+
+  /// With weights=1: per particle of the last compute, its cells and the fraction of its
+  /// volume in each (CSR); the fractions of a particle sum to 1 less its dropped share.
+  struct WeightsSize {
+    std::int64_t particles = 0, entries = 0;
+  };
+  WeightsSize weights_size() const;
+  void weights(std::span<std::int64_t> offsets, std::span<std::int64_t> cells, std::span<double> fractions) const;
+  /// out[c*k + j] = sum_p fraction_pc * values[p*k + j] (k = components; overwrites out).
+  void deposit(std::int32_t components, std::span<const double> values, std::span<double> out) const;
+  /// out[p*k + j] = sum_c fraction_pc * field[c*k + j] / sum_c fraction_pc (0 with no cell).
+  void interpolate(std::int32_t components, std::span<const double> cell_field, std::span<double> out) const;
+  /// Sends the engine's log to fn (null: back to stderr).
+  void set_log_callback(vfe_log_fn fn, void* user);
   /// Void fraction of the last compute (clipped at alpha_min if set).
   void void_fraction(std::span<double> out) const;
   /// Facts about the last successful compute.

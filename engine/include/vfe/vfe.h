@@ -95,6 +95,49 @@ VFE_API vfe_status vfe_compute_shapes(vfe_engine* e, int64_t n, const double* ce
                                       const double* scales, const double* orientations,
                                       const int32_t* shape_ids, double* solid_volume);
 
+/** Name of method i (0, 1, ...: "direct", "pmm", "exact", ...), NULL past the last. */
+VFE_API const char* vfe_method_name(int32_t i);
+
+/* ---- Coupling API ---------------------------------------------------------------------- */
+
+/** A face-based mesh from the host's memory, ordered as OpenFOAM orders it: internal faces
+ *  first (normal from owner to neighbour), then boundary faces; cells = 1 + max(owner).
+ *  Gives the same engine as vfe_create_polymesh on the same mesh. The arrays are copied. */
+VFE_API vfe_status vfe_create_polymesh_arrays(int64_t n_points, const double* points /* 3 n_points */,
+                                              int64_t n_faces, const int64_t* face_offsets /* n_faces+1 */,
+                                              const int64_t* face_points /* face_offsets[n_faces] */,
+                                              const int64_t* owner /* n_faces */, int64_t n_internal_faces,
+                                              const int64_t* neighbour /* n_internal_faces */, vfe_engine** out);
+
+/** Particles in the host's own layout: byte strides between consecutive particles (0 =
+ *  packed), read in place, nothing copied or kept. Centres are x, y, z per particle.
+ *  Orientations (w, x, y, z) are read with orientation=given only; orientation=random
+ *  draws each particle's rotation from its id when ids is given, else from its index. */
+typedef struct vfe_particles {
+  int64_t n;
+  const double* centres;      int64_t centres_stride;      /* x,y,z */
+  const double* radii;        int64_t radii_stride;        /* radius; the scale for shapes */
+  const double* orientations; int64_t orientations_stride; /* w,x,y,z, or NULL */
+  const int32_t* shape_ids;   int64_t shape_ids_stride;    /* NULL: spheres */
+  const int64_t* ids;         int64_t ids_stride;          /* the host's particle ids, or NULL */
+} vfe_particles;
+VFE_API vfe_status vfe_compute_particles(vfe_engine* e, const vfe_particles* p, double* solid_volume);
+
+/** With option weights=1: per particle of the last compute, its cells and the fraction of
+ *  its volume in each (CSR). Fractions of a particle sum to 1 less its dropped share. */
+VFE_API vfe_status vfe_weights_size(const vfe_engine* e, int64_t* n_particles, int64_t* n_entries);
+VFE_API vfe_status vfe_weights(const vfe_engine* e, int64_t* offsets /* n_particles+1 */,
+                               int64_t* cells /* n_entries */, double* fractions /* n_entries */);
+/** out[c*k + j] = sum_p fraction_pc * values[p*k + j]   (overwrites out; conserves sums) */
+VFE_API vfe_status vfe_deposit(const vfe_engine* e, int32_t components, const double* values,
+                               double* out /* cell_count * components */);
+/** out[p*k + j] = sum_c fraction_pc * field[c*k + j] / sum_c fraction_pc   (0 if no cell) */
+VFE_API vfe_status vfe_interpolate(const vfe_engine* e, int32_t components, const double* cell_field,
+                                   double* out /* n_particles * components */);
+/** The host owns the log: level as spdlog's (0 trace .. 5 critical). NULL restores stderr. */
+typedef void (*vfe_log_fn)(int level, const char* message, void* user);
+VFE_API vfe_status vfe_set_log_callback(vfe_engine* e, vfe_log_fn fn, void* user);
+
 /** Facts about the last successful compute. Volumes in the host's units. */
 typedef struct vfe_report {
   int64_t particles;            /* particles given */

@@ -1,16 +1,19 @@
-// direct: the whole particle volume to the cell holding its centre (CFDEM `centre`).
+// direct: the whole particle volume to the cell holding its centre (CFDEM `centre`); for a
+// shaped particle, the cell holding its centroid.
 #include "methods/driver.hpp"
 
 namespace vfe::detail {
 
 void direct_particle(const Context& ctx, Scratch& s, const Particle& p) {
   ++s.sub_elements;
-  const std::int64_t cell = ctx.grid.locate(p.centre);
+  const Eigen::Vector3d at = p.shaped ? Eigen::Vector3d(p.centre + p.radius * (particle_rotation(ctx.opts, p) * p.centroid))
+                                      : p.centre;
+  const std::int64_t cell = ctx.grid.locate(at);
   bool flagged = false;
   if (cell >= 0)
     s.add(cell, p.volume);
   else
-    outside(ctx, s, p, p.volume, ctx.grid.nearest(p.centre), flagged, ctx.opts.outside);
+    outside(ctx, s, p, p.volume, ctx.grid.nearest(at), flagged, ctx.opts.outside);
 }
 
 }  // namespace vfe::detail

@@ -6,26 +6,6 @@
 
 namespace vfe::detail {
 
-namespace {
-constexpr std::int64_t kLadderLinear = 20;
-constexpr double kLadderGrowth = 1.05;
-}  // namespace
-
-std::int64_t auto_ladder_value(std::int64_t step) {
-  if (step <= kLadderLinear) return step;
-  return static_cast<std::int64_t>(std::ceil(kLadderLinear * std::pow(kLadderGrowth, double(step - kLadderLinear)) - 1e-9));
-}
-
-std::int64_t auto_step(double diameter, double cell_volume, const AutoRule& rule) {
-  const double chi = std::cbrt(cell_volume) / diameter;
-  const double cap = double(std::max<std::int64_t>(1, std::min(rule.max_grid, kMaxAutoGrid) / 5));
-  const double n_min = std::min(n_min_model(chi, rule.model, rule.criterion), cap);
-  const auto k = std::max<std::int64_t>(1, static_cast<std::int64_t>(std::ceil(n_min * (1.0 - 1e-12))));
-  if (k <= kLadderLinear) return k;
-  return kLadderLinear +
-         static_cast<std::int64_t>(std::ceil(std::log(double(k) / kLadderLinear) / std::log(kLadderGrowth) - 1e-9));
-}
-
 Window make_window(const CartesianGrid& grid, const Eigen::Vector3d& c, const Eigen::Vector3d& half) {
   Window w;
   for (int d = 0; d < 3; ++d) {
@@ -69,16 +49,8 @@ std::int64_t single_cell(const Context& ctx, const Eigen::Vector3d& c, const Eig
 
 void outside(const Context& ctx, Scratch& s, const Particle& p, double volume, std::int64_t nearest_cell,
              bool& flagged, Outside policy) {
-  if (!flagged) {
-    flagged = true;
-    ++s.outside_particles;
-  }
-  switch (policy) {
-    case Outside::nearest: s.add(nearest_cell, volume); break;
-    case Outside::centre: s.add(ctx.grid.nearest(p.centre), volume); break;
-    case Outside::drop: s.add(ctx.grid.cell_count(), volume); break;  // the dropped-volume slot
-    case Outside::error: s.first_error = std::min(s.first_error, p.index); break;
-  }
+  apply_outside(s, p, volume, policy, ctx.grid.cell_count(), flagged, [&] { return nearest_cell; },
+                [&] { return ctx.grid.nearest(p.centre); });
 }
 
 void emit_window(const Context& ctx, Scratch& s, const Particle& p, const Window& w, Outside policy) {

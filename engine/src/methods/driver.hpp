@@ -7,9 +7,9 @@
 
 #include "cartesian_grid.hpp"
 #include "options.hpp"
+#include "particle_grid.hpp"
 
 #include <vfe/kernels/particle_template.hpp>
-#include <vfe/stability.hpp>
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -118,54 +118,53 @@ struct Scratch {
 
 /// One particle as the drivers see it.
 struct Particle {
-  std::int64_t index;
-  Eigen::Vector3d centre;
-  double radius;
+  std::int64_t index;         ///< position in the host's arrays (error messages)
+  Eigen::Vector3d centre;     ///< wrapped into the periodic axes
+  double radius;              ///< sphere radius, or the shape's scale
   double volume;
   const double* orientation;  ///< quaternion (w, x, y, z) or null
+  std::uint64_t rotation_key; ///< orientation=random draws the rotation from it (host id or index)
+  /// A non-spherical particle: pmm's template of its shape (null for spheres: the bank's),
+  /// and its centroid in template units (direct's point).
+  const kernels::ParticleTemplate* shape_template = nullptr;
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  bool shaped = false;
 };
 
-/// particle_grid=auto: n = 5 * n_min(chi) with n_min from the stress test's fitted jump
-/// model (docs/stability.md) under a jump criterion (DESIGN's default or the flux form).
-struct AutoRule {
-  JumpModel model;
-  double criterion = kDefaultJumpCriterion;
-  std::int64_t max_grid = 20000;  ///< particle_grid_max
-};
-
-/// Largest particle grid `auto` may choose.
-inline constexpr std::int64_t kMaxAutoGrid = 5 * 27 * 1000;
-
-/// Auto step of a particle: the template ladder's index of ceil(n_min(chi)), where the
-/// ladder is 1, 2, ..., 20 and then grows by 5 % a rung (so a polydisperse bed needs few
-/// templates). particle_grid = 5 * auto_ladder_value(step).
-std::int64_t auto_step(double diameter, double cell_volume, const AutoRule& rule);
-std::int64_t auto_ladder_value(std::int64_t step);
-/// Sub-elements auto uses at a step: 5 * auto_ladder_value(step), at most rule.max_grid.
-inline std::int64_t auto_particle_count(std::int64_t step, const AutoRule& rule) {
-  return std::min(5 * auto_ladder_value(step), std::max<std::int64_t>(rule.max_grid, 1));
-}
-
-/// PMM's templates for this compute: one fixed size, or one per auto step.
-struct TemplateBank {
-  std::span<const kernels::ParticleTemplate* const> templates;
-  std::int64_t first_step = 0;  ///< auto step of templates[0]
-  bool fixed = false;           ///< particle_grid given: templates[0] for every particle
-  AutoRule rule;
-};
-
-/// What a driver reads during one compute (never writes).
-struct Context {
-  const CartesianGrid& grid;
+/// What every driver reads during one compute (never writes), whatever the mesh.
+struct MethodContext {
   const Options& opts;
   TemplateBank bank;
   const kernels::ParticleTemplate& divided;  ///< the divided method's 29 points
+};
 
-  const kernels::ParticleTemplate& template_for(double diameter) const {
-    if (bank.templates.size() == 1) return *bank.templates.front();
-    return *bank.templates[static_cast<std::size_t>(auto_step(diameter, grid.cell_volume(), bank.rule) - bank.first_step)];
+/// The Cartesian grid's drivers' context.
+struct Context : MethodContext {
+  const CartesianGrid& grid;
+
+  const kernels::ParticleTemplate& template_for(const Particle& p) const {
+    return p.shape_template ? *p.shape_template : bank.template_for(2 * p.radius, grid.cell_volume());
   }
 };
+
+/// The outside policy, the one place it is decided: volume of particle p that lies beyond
+/// the mesh goes to nearest() (the cell nearest to where it is), to centre() (the cell of
+/// the particle's centre, or the nearest to it), to the dropped-volume slot, or marks the
+/// compute failed. flagged counts the particle once.
+template <class Nearest, class CentreCell>
+void apply_outside(Scratch& s, const Particle& p, double volume, Outside policy, std::int64_t dropped_slot,
+                   bool& flagged, Nearest&& nearest, CentreCell&& centre) {
+  if (!flagged) {
+    flagged = true;
+    ++s.outside_particles;
+  }
+  switch (policy) {
+    case Outside::nearest: s.add(nearest(), volume); break;
+    case Outside::centre: s.add(centre(), volume); break;
+    case Outside::drop: s.add(dropped_slot, volume); break;
+    case Outside::error: s.first_error = std::min(s.first_error, p.index); break;
+  }
+}
 
 /// The cells a footprint around a centre can touch: per axis the cells from the one holding
 /// centre - half to the one holding centre + half, clamped to one layer of virtual cells
@@ -206,11 +205,6 @@ void deposit_points(const Context& ctx, Scratch& s, const Particle& p, const ker
 
 /// The rotation of particle p's template under the orientation option.
 Eigen::Matrix3d particle_rotation(const Options& opts, const Particle& p);
-
-/// A non-spherical particle (radius = its shape's scale): pmm deposits the shape's
-/// template t; with t null (direct) everything goes to the cell holding the centroid.
-void shape_particle(const Context& ctx, Scratch& s, const Particle& p, const kernels::ParticleTemplate* t,
-                    const Eigen::Vector3d& centroid);
 
 // One function per method: the particle's deposits into s (s.deposits is empty on entry).
 void direct_particle(const Context& ctx, Scratch& s, const Particle& p);

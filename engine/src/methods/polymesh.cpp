@@ -23,17 +23,10 @@ bool ball_inside_cell(const PolyMesh& mesh, std::int64_t cell, const Eigen::Vect
 }
 
 void outside_poly(const PolyContext& ctx, Scratch& s, const Particle& p, double volume, const Eigen::Vector3d& at,
-                  std::int64_t centre_cell, bool& flagged) {
-  if (!flagged) {
-    flagged = true;
-    ++s.outside_particles;
-  }
-  switch (ctx.opts.outside) {
-    case Outside::nearest: s.add(ctx.locator->nearest_cell(at), volume); break;
-    case Outside::centre: s.add(centre_cell >= 0 ? centre_cell : ctx.locator->nearest_cell(p.centre), volume); break;
-    case Outside::drop: s.add(ctx.locator->mesh().cell_count(), volume); break;  // the dropped-volume slot
-    case Outside::error: s.first_error = std::min(s.first_error, p.index); break;
-  }
+                  std::int64_t centre_cell, bool& flagged, Outside policy) {
+  apply_outside(s, p, volume, policy, ctx.locator->mesh().cell_count(), flagged,
+                [&] { return ctx.locator->nearest_cell(at); },
+                [&] { return centre_cell >= 0 ? centre_cell : ctx.locator->nearest_cell(p.centre); });
 }
 
 namespace {
@@ -565,44 +558,40 @@ class SubElements {
 
 }  // namespace
 
-void polymesh_particle(const PolyContext& ctx, Scratch& s, const Particle& p, const kernels::ParticleTemplate* t,
-                       const Eigen::Vector3d& centroid) {
-  const std::int64_t centre_cell = ctx.locator->locate(p.centre);
-  bool flagged = false;
-  const Eigen::Matrix3d rotation = particle_rotation(ctx.opts, p);
-  if (!t) {  // direct: everything at the body's centroid
-    const Eigen::Vector3d at = p.centre + p.radius * (rotation * centroid);
-    const std::int64_t cell = centroid.isZero() ? centre_cell : ctx.locator->locate_from(at, centre_cell);
-    ++s.sub_elements;
-    if (cell >= 0)
-      s.add(cell, p.volume);
-    else
-      outside_poly(ctx, s, p, p.volume, at, centre_cell, flagged);
-    return;
-  }
+bool cell_is_box(const PolyMesh& mesh, std::int64_t c, Eigen::AlignedBox3d& box) {
+  const std::array<std::int32_t, 2> corners = box_corners(mesh, c);
+  if (corners[0] < 0) return false;
+  box = Eigen::AlignedBox3d(mesh.points()[static_cast<std::size_t>(corners[0])],
+                            mesh.points()[static_cast<std::size_t>(corners[1])]);
+  return true;
+}
+
+void polymesh_points(const PolyContext& ctx, Scratch& s, const Particle& p, const kernels::ParticleTemplate& t,
+                     const Eigen::Matrix3d& rotation, Outside policy, std::int64_t centre_cell) {
   const PolyMesh& mesh = ctx.locator->mesh();
-  const std::int64_t n = static_cast<std::int64_t>(t->size());
+  const std::int64_t n = static_cast<std::int64_t>(t.size());
   s.count_grid(n);
-  if (centre_cell >= 0 && ball_inside_cell(mesh, centre_cell, p.centre, p.radius * t->reach)) {
+  if (ctx.opts.fast_path && centre_cell >= 0 && ball_inside_cell(mesh, centre_cell, p.centre, p.radius * t.reach)) {
     ++s.fast_path;
     s.add(centre_cell, p.volume);
     return;
   }
   s.sub_elements += n;
+  bool flagged = false;
   // Every sub-element lies within reach of the centre (with a margin for rounding).
-  const double half = p.radius * t->reach * (1 + 1e-9) + mesh.location_tolerance();
+  const double half = p.radius * t.reach * (1 + 1e-9) + mesh.location_tolerance();
   SubElements cells(ctx, s, p, half, n, centre_cell);
   std::int64_t centre_or_nearest = centre_cell;  // outside=centre's cell
   const Eigen::Matrix3d transform = rotation * p.radius;
-  for (std::size_t q = 0; q < t->size(); ++q) {
-    const Eigen::Vector3d x = p.centre + transform * t->points[q];
-    const double v = p.volume * t->fractions[q];
+  for (std::size_t q = 0; q < t.size(); ++q) {
+    const Eigen::Vector3d x = p.centre + transform * t.points[q];
+    const double v = p.volume * t.fractions[q];
     std::int64_t b = SubElements::kNoBin;
     if (const std::int32_t at = cells.locate(x, b); at >= 0) {
       Scratch::PolyCell& c = cells.cell(at);
       c.volume += v;
       ++c.hits;
-    } else if (ctx.opts.outside == Outside::nearest) {
+    } else if (policy == Outside::nearest) {
       if (!flagged) {
         flagged = true;
         ++s.outside_particles;
@@ -615,12 +604,71 @@ void polymesh_particle(const PolyContext& ctx, Scratch& s, const Particle& p, co
         s.add(ctx.locator->nearest_cell(x), v);
       }
     } else {
-      if (centre_or_nearest < 0 && ctx.opts.outside == Outside::centre)
-        centre_or_nearest = ctx.locator->nearest_cell(p.centre);
-      outside_poly(ctx, s, p, v, x, centre_or_nearest, flagged);
+      if (centre_or_nearest < 0 && policy == Outside::centre) centre_or_nearest = ctx.locator->nearest_cell(p.centre);
+      outside_poly(ctx, s, p, v, x, centre_or_nearest, flagged, policy);
     }
   }
   cells.finish();
+}
+
+void polymesh_direct(const PolyContext& ctx, Scratch& s, const Particle& p) {
+  const std::int64_t centre_cell = ctx.locator->locate(p.centre);
+  ++s.sub_elements;
+  bool flagged = false;
+  std::int64_t cell = centre_cell;
+  Eigen::Vector3d at = p.centre;
+  if (p.shaped) {  // everything at the body's centroid
+    at = p.centre + p.radius * (particle_rotation(ctx.opts, p) * p.centroid);
+    cell = ctx.locator->locate_from(at, centre_cell);
+  }
+  if (cell >= 0)
+    s.add(cell, p.volume);
+  else
+    outside_poly(ctx, s, p, p.volume, at, centre_cell, flagged, ctx.opts.outside);
+}
+
+void polymesh_pmm(const PolyContext& ctx, Scratch& s, const Particle& p) {
+  const std::int64_t centre_cell = ctx.locator->locate(p.centre);
+  const kernels::ParticleTemplate* t = p.shape_template;
+  if (!t) {  // auto sizes a sphere's template by the cell holding its centre
+    const std::int64_t cell = centre_cell >= 0 ? centre_cell : ctx.locator->nearest_cell(p.centre);
+    t = &ctx.bank.template_for(2 * p.radius, ctx.locator->mesh().cell_volume(cell));
+  }
+  polymesh_points(ctx, s, p, *t, particle_rotation(ctx.opts, p), ctx.opts.outside, centre_cell);
+}
+
+void polymesh_divided(const PolyContext& ctx, Scratch& s, const Particle& p) {
+  // As in CFDEM: never rotated, and a point in no cell goes to the particle's own cell.
+  const Outside policy = ctx.opts.outside == Outside::nearest ? Outside::centre : ctx.opts.outside;
+  polymesh_points(ctx, s, p, ctx.divided, Eigen::Matrix3d::Identity(), policy, ctx.locator->locate(p.centre));
+}
+
+void polymesh_big_particle(const PolyContext& ctx, Scratch& s, const Particle& p) {
+  const PolyMesh& mesh = ctx.locator->mesh();
+  const Eigen::Vector3d& c = p.centre;
+  const double r2 = p.radius * p.radius;
+  const std::int64_t centre_cell = ctx.locator->locate(c);
+  bool flagged = false;
+  if (ctx.opts.fast_path && centre_cell >= 0 && ball_inside_cell(mesh, centre_cell, c, p.radius)) {
+    ++s.fast_path;  // only this cell's centre can lie within the particle
+    s.add(centre_cell, p.volume);
+    return;
+  }
+  const Eigen::Vector3d half = Eigen::Vector3d::Constant(p.radius);
+  ctx.locator->hash().cells_in_box(Eigen::AlignedBox3d(c - half, c + half), s.candidate_cells);
+  s.sub_elements += static_cast<std::int64_t>(s.candidate_cells.size());
+  std::int64_t count = 0;
+  for (const std::int64_t cell : s.candidate_cells) count += (mesh.cell_centre(cell) - c).squaredNorm() <= r2;
+  if (count == 0) {  // no cell centre within the particle: its own cell
+    if (centre_cell >= 0)
+      s.add(centre_cell, p.volume);
+    else
+      outside_poly(ctx, s, p, p.volume, c, centre_cell, flagged, ctx.opts.outside);
+    return;
+  }
+  const double share = p.volume / double(count);
+  for (const std::int64_t cell : s.candidate_cells)  // candidates are distinct: no merge needed
+    if ((mesh.cell_centre(cell) - c).squaredNorm() <= r2) s.deposits.push_back({cell, share});
 }
 
 }  // namespace vfe::detail

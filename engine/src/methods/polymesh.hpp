@@ -7,34 +7,49 @@
 
 namespace vfe::detail {
 
-struct PolyContext {
+struct PolyContext : MethodContext {
   const CellLocator* locator;
-  const Options& opts;
 };
 
 /// True when the ball (c, r) lies inside cell `cell`: deeper than r plus the warp below
 /// every face plane. Sufficient for the fast path (a cell that is not convex answers no).
 bool ball_inside_cell(const PolyMesh& mesh, std::int64_t cell, const Eigen::Vector3d& c, double r);
 
-/// Volume of particle p that lies outside the mesh, handled by the outside policy:
-/// `nearest` gives it to the cell with the centre nearest to `at`, `centre` to centre_cell
-/// (or the cell nearest to p's centre when that is -1); flagged counts the particle once.
+/// Volume of particle p that lies outside the mesh, handled by `policy`: `nearest` gives it
+/// to the cell with the centre nearest to `at`, `centre` to centre_cell (or the cell nearest
+/// to p's centre when that is -1); flagged counts the particle once.
 void outside_poly(const PolyContext& ctx, Scratch& s, const Particle& p, double volume, const Eigen::Vector3d& at,
-                  std::int64_t centre_cell, bool& flagged);
+                  std::int64_t centre_cell, bool& flagged, Outside policy);
 
-/// One particle on a polyMesh: pmm deposits template t (unit-sphere or shape template,
-/// scaled by p.radius and rotated); with t null (direct) everything goes to the cell
-/// holding the body's centroid (zero for spheres). Outside points follow the policy,
-/// `nearest` meaning the cell with the nearest centre. Every sub-element lands where
-/// CellLocator::locate_from (and nearest_cell) would put it, found per particle from the
-/// cells near it (docs/polymesh.md, "How pmm locates sub-elements on a polyMesh").
-void polymesh_particle(const PolyContext& ctx, Scratch& s, const Particle& p, const kernels::ParticleTemplate* t,
-                       const Eigen::Vector3d& centroid);
+/// Deposits every point of template t (scaled by p.radius, rotated) into the cell that
+/// CellLocator::locate_from (and nearest_cell) would give it, found per particle from the
+/// cells near it (docs/polymesh.md, "How pmm locates sub-elements on a polyMesh"); outside
+/// points follow `policy`. centre_cell: the cell holding p's centre, or -1.
+void polymesh_points(const PolyContext& ctx, Scratch& s, const Particle& p, const kernels::ParticleTemplate& t,
+                     const Eigen::Matrix3d& rotation, Outside policy, std::int64_t centre_cell);
+
+/// Cell c's boundary as outward polygons into s.cell_points / cell_face_offsets /
+/// cell_face_points: a planar face as its polygon, a warped one as the fan (apex, P_i,
+/// P_i+1). Both cells of a face see the same surface (the point-location one), so their
+/// overlaps with any body add up to that of their union.
+void cell_boundary(const PolyMesh& mesh, std::int64_t c, Scratch& s);
+
+/// True when cell c is an axis-aligned box (convex, every face in one of the six planes of
+/// its points' box); then box holds it.
+bool cell_is_box(const PolyMesh& mesh, std::int64_t c, Eigen::AlignedBox3d& box);
+
+// The methods on a polyMesh: s gets the particle's deposits.
+void polymesh_direct(const PolyContext& ctx, Scratch& s, const Particle& p);
+void polymesh_pmm(const PolyContext& ctx, Scratch& s, const Particle& p);
+void polymesh_divided(const PolyContext& ctx, Scratch& s, const Particle& p);
+void polymesh_big_particle(const PolyContext& ctx, Scratch& s, const Particle& p);
+void polymesh_gaussian(const PolyContext& ctx, Scratch& s, const Particle& p);
+void polymesh_porous_cube(const PolyContext& ctx, Scratch& s, const Particle& p);
 
 /// exact on a polyMesh: the exact overlap volume of sphere p with every cell it reaches,
 /// each cell bounded by its faces: a planar face as its polygon, a warped one as the fan
 /// of triangles (face apex, two consecutive points), the surface of the point-in-cell
 /// test; what lies beyond the mesh follows the outside policy.
-void polymesh_exact_particle(const PolyContext& ctx, Scratch& s, const Particle& p);
+void polymesh_exact(const PolyContext& ctx, Scratch& s, const Particle& p);
 
 }  // namespace vfe::detail

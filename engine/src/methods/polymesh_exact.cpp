@@ -7,8 +7,6 @@
 
 namespace vfe::detail {
 
-namespace {
-
 /// Cell c's boundary as outward polygons into s.cell_*: a planar face as its polygon, a
 /// warped one as the fan (apex, P_i, P_i+1). Both cells of a face thus see the same
 /// surface (the point-location one), and their overlaps add up to that of their union.
@@ -39,14 +37,13 @@ void cell_boundary(const PolyMesh& mesh, std::int64_t c, Scratch& s) {
   }
 }
 
-}  // namespace
 
-void polymesh_exact_particle(const PolyContext& ctx, Scratch& s, const Particle& p) {
+void polymesh_exact(const PolyContext& ctx, Scratch& s, const Particle& p) {
   const PolyMesh& mesh = ctx.locator->mesh();
   const Eigen::Vector3d& c = p.centre;
   const double r = p.radius, r2 = r * r;
   const std::int64_t centre_cell = ctx.locator->locate(c);
-  if (centre_cell >= 0 && ball_inside_cell(mesh, centre_cell, c, r)) {
+  if (ctx.opts.fast_path && centre_cell >= 0 && ball_inside_cell(mesh, centre_cell, c, r)) {
     ++s.fast_path;
     s.add(centre_cell, p.volume);
     return;
@@ -75,7 +72,7 @@ void polymesh_exact_particle(const PolyContext& ctx, Scratch& s, const Particle&
   // What the cells do not hold lies beyond the mesh (beyond round-off).
   const double rest = p.volume - inside;
   bool flagged = false;
-  if (rest > 1e-12 * p.volume) outside_poly(ctx, s, p, rest, c, centre_cell, flagged);
+  if (rest > 1e-12 * p.volume) outside_poly(ctx, s, p, rest, c, centre_cell, flagged, ctx.opts.outside);
 }
 
 }  // namespace vfe::detail

@@ -1,6 +1,7 @@
-// direct, pmm and exact on a rectilinear (graded Cartesian) grid: per-axis binary search to
-// locate, the closed-form sphere-box overlaps on the grid's own nodes for exact, and
-// periodic axes by wrapping (points) or by node coordinates continued past the ends (exact).
+// Every method on a rectilinear (graded Cartesian) grid: per-axis binary search to locate,
+// windows of cells with the grid's own nodes (continued past the ends on periodic axes),
+// closed-form sphere-box overlaps for exact and the separable kernels' closed forms for
+// gaussian and porous_cube.
 #pragma once
 
 #include "methods/driver.hpp"
@@ -8,15 +9,20 @@
 
 namespace vfe::detail {
 
-struct RectilinearContext {
+struct RectilinearContext : MethodContext {
   const RectilinearGrid& grid;
-  const Options& opts;
 };
 
-/// One sphere or shaped particle (p.centre already wrapped into periodic axes). pmm
-/// deposits template t (scaled by p.radius, rotated); with t null, direct puts everything
-/// at the body's centroid (zero for spheres); exact (method=exact, spheres only) ignores t.
-void rectilinear_particle(const RectilinearContext& ctx, Scratch& s, const Particle& p,
-                          const kernels::ParticleTemplate* t, const Eigen::Vector3d& centroid);
+void rectilinear_direct(const RectilinearContext& ctx, Scratch& s, const Particle& p);
+void rectilinear_pmm(const RectilinearContext& ctx, Scratch& s, const Particle& p);
+void rectilinear_exact(const RectilinearContext& ctx, Scratch& s, const Particle& p);
+void rectilinear_divided(const RectilinearContext& ctx, Scratch& s, const Particle& p);
+void rectilinear_gaussian(const RectilinearContext& ctx, Scratch& s, const Particle& p);
+void rectilinear_porous_cube(const RectilinearContext& ctx, Scratch& s, const Particle& p);
+void rectilinear_big_particle(const RectilinearContext& ctx, Scratch& s, const Particle& p);
+void rectilinear_trilinear(const RectilinearContext& ctx, Scratch& s, const Particle& p);
+
+/// A position moved into the grid along its periodic axes (others unchanged).
+Eigen::Vector3d rectilinear_wrap(const RectilinearGrid& grid, unsigned periodic, Eigen::Vector3d x);
 
 }  // namespace vfe::detail

@@ -2,7 +2,7 @@
 
 #include "polymesh/predicates.hpp"
 
-#include <vfe/engine.hpp>
+#include <vfe/error.hpp>
 
 #include <nanoflann.hpp>
 

@@ -1,6 +1,6 @@
 #include "polymesh/rectilinear_grid.hpp"
 
-#include <vfe/engine.hpp>
+#include <vfe/error.hpp>
 
 #include <algorithm>
 #include <cmath>

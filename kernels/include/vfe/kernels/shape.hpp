@@ -7,6 +7,7 @@
 #include <Eigen/Geometry>
 
 #include <cstddef>
+#include <cstdint>
 #include <string>
 #include <utility>
 #include <vector>
@@ -86,8 +87,8 @@ class Shape {
   const Eigen::AlignedBox3d& bounds() const { return bounds_; }
   /// The clump's spheres (x, y, z, r); empty for other kinds.
   const std::vector<Eigen::Vector4d>& spheres() const { return spheres_; }
-  /// The mesh's surface; empty for other kinds.
-  const TriangleMesh& triangle_mesh() const { return mesh_; }
+  /// The surface of a mesh shape (empty for the other kinds).
+  const TriangleMesh& mesh() const { return mesh_; }
 
   /// The z-intervals where the vertical line through (x, y) lies inside the body, sorted
   /// and disjoint. `out` is cleared first.
@@ -131,5 +132,20 @@ ParticleTemplate make_shape_template(const Shape& shape, int n);
 /// The same from samples of the shape taken once (sample_shape; the cut reorders them, so
 /// they are taken by value). n is capped at a twentieth of the samples.
 ParticleTemplate make_shape_template(const Shape& shape, int n, std::vector<Eigen::Vector3d> samples);
+
+/// Partition `variant` of the shape into n equal-volume sub-elements, so that particles
+/// given different variants (a bank the driver picks from by particle index, as spheres
+/// get a random rotation) do not share one partition whose layers of sub-element centroids
+/// cross a cell face together. Variant 0 is make_shape_template(shape, n) unchanged.
+/// Variant k >= 1: sphere and ellipsoid: the fibonacci template turned by the fixed
+/// rotation random_rotation(k, .) about the shape's own centre, then mapped by the
+/// semi-axes (an affine map keeps equal volumes and the centroid at the centre); other
+/// shapes: midpoint samples on a lattice turned by that rotation and shifted by a fixed
+/// fraction of its spacing, cut by recursive bisection along the lattice's own axes.
+/// Every variant has exactly equal fractions 1/n summing to 1 and its centre of volume on
+/// the shape's exact centroid. About samples_per_element samples per sub-element
+/// (200k to 4M in all) are taken for the sampled shapes.
+ParticleTemplate make_shape_template_variant(const Shape& shape, int n, std::uint32_t variant,
+                                             std::size_t samples_per_element = 400);
 
 }  // namespace vfe::kernels

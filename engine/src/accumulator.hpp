@@ -1,0 +1,206 @@
+// Accumulation: one particle loop, and the strategies that turn its per-particle deposits
+// into the solid-volume field. Strategies differ only in where a deposit goes (a thread's
+// private field, an atomic add into the shared field, or the deposit blocks that sorted,
+// incremental and weights keep) and how the field is then assembled; the loop, the
+// failure handling and the commit are written once.
+//
+// Failure atomicity: the committed field (solid) changes only in commit(), after every
+// particle has been computed and the caller's checks passed. Whatever a failed compute
+// left in per-thread fields or blocks is cleared, so the next compute equals a fresh
+// engine's.
+#pragma once
+
+#include "methods/driver.hpp"
+#include "options.hpp"
+
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+namespace vfe::detail {
+
+/// Particles per deposit block: fixed, so a deterministic sum never depends on the thread
+/// count; small enough that incremental redoes little for one moved particle.
+inline constexpr std::int64_t kDepositBlock = 512;
+
+/// How one compute accumulates: the resolved strategy and the skips that combine with it.
+struct AccumulationPlan {
+  Accumulation strategy = Accumulation::privatised;  ///< privatised, atomic or sorted (never automatic)
+  bool touched_only = false;  ///< clear, merge and sum only touched cells (privatised or sorted)
+  bool incremental = false;   ///< redo only particles that moved (keeps deposit blocks)
+  bool keep_deposits = false; ///< keep every particle's deposits (weights=1)
+  bool uses_blocks() const { return strategy == Accumulation::sorted || incremental || keep_deposits; }
+};
+
+/// Particles' deposits by blocks of kDepositBlock: particle i of block b has
+/// deposits[offsets[i] .. offsets[i + 1]).
+struct DepositBlock {
+  std::vector<Deposit> deposits;
+  std::vector<std::uint32_t> offsets;
+  std::vector<std::uint32_t> moved;  ///< incremental: particles of the block redone by this compute
+};
+
+class Accumulator {
+ public:
+  explicit Accumulator(std::int64_t cells) : cells_(cells), solid_(static_cast<std::size_t>(cells), 0.0) {}
+
+  std::int64_t cell_count() const { return cells_; }
+  /// The committed field (solid volume per cell).
+  const std::vector<double>& field() const { return solid_; }
+  /// Volume that went to the dropped slot in the committed field.
+  double dropped() const { return dropped_; }
+  /// Particles computed anew by the last commit.
+  std::int64_t moved() const { return moved_; }
+  /// incremental: the particles the last commit redid, in increasing order.
+  const std::vector<std::int64_t>& moved_particles() const { return moved_list_; }
+  /// With touched_only: the cells of the field that may be non-zero; null when any may be.
+  const std::vector<std::int64_t>* touched() const { return touched_valid_ ? &touched_ : nullptr; }
+  /// The kept per-particle deposits of the committed field (incremental, weights), or empty.
+  std::span<const DepositBlock> blocks() const {
+    return kept_ ? std::span<const DepositBlock>(blocks_) : std::span<const DepositBlock>();
+  }
+  std::int64_t kept_particles() const { return kept_ ? kept_n_ : 0; }
+  /// Forgets kept deposits (incremental starts afresh next time).
+  void invalidate_kept() { kept_ = false; }
+
+  /// Phase 1: computes the deposits of particles [0, n) under the plan in the arena
+  /// (incremental: only particles beyond the kept ones and those moved(p) says moved).
+  /// particle(s, p) fills s.deposits. Throws what particle throws, after clearing every
+  /// partial result.
+  template <class ParticleFn, class MovedFn>
+  void deposit(tbb::task_arena& arena, tbb::enumerable_thread_specific<Scratch>& scratch, const AccumulationPlan& plan,
+               std::int64_t n, ParticleFn&& particle, MovedFn&& moved);
+  /// Drops phase 1's results (a check after phase 1 failed).
+  void abandon();
+  /// Phase 2: makes phase 1's deposits the committed field.
+  void commit(tbb::task_arena& arena, bool deterministic);
+
+ private:
+  struct PrivateField {
+    std::vector<double> field;          // cells + 1 values (last: dropped), zero between computes
+    std::vector<std::int64_t> touched;  // touched_only: the cells it holds volume in
+  };
+  PrivateField& private_field();
+  void add_private(PrivateField& f, const Deposit& d) {
+    double& x = f.field[static_cast<std::size_t>(d.cell)];
+    if (plan_.touched_only && x == 0.0) f.touched.push_back(d.cell);
+    x += d.volume;
+  }
+  /// Adds the private fields into solid_ (cleared first unless onto_solid) and zeroes them.
+  void merge_private(tbb::task_arena& arena, bool onto_solid);
+  void reduce_blocks(tbb::task_arena& arena, bool deterministic);
+  void sorted_sum(tbb::task_arena& arena);
+  void apply_incremental(tbb::task_arena& arena, bool deterministic);
+  /// Clears the committed field where it may be non-zero.
+  void clear_solid();
+
+  std::int64_t cells_;
+  std::vector<double> solid_;
+  double dropped_ = 0;
+  std::int64_t moved_ = 0;
+  std::vector<std::int64_t> moved_list_;
+
+  // Phase 1's state.
+  AccumulationPlan plan_;
+  std::int64_t n_ = 0;
+  bool pending_ = false;
+  std::vector<double> work_;  // atomic: the field being computed (+1 slot: dropped)
+  tbb::enumerable_thread_specific<PrivateField> private_;
+  bool private_dirty_ = false;
+
+  // Blocks: those of phase 1 (next_) and the committed ones (blocks_: incremental, weights).
+  std::vector<DepositBlock> blocks_, next_;
+  bool kept_ = false;
+  std::int64_t kept_n_ = 0, reuse_n_ = 0;
+
+  // touched_only: the cells of solid_ that may be non-zero.
+  std::vector<std::int64_t> touched_;
+  bool touched_valid_ = false;
+
+  // sorted: (cell, position) keys and values.
+  std::vector<std::pair<std::int64_t, std::int64_t>> sort_keys_;
+  std::vector<double> sort_values_;
+  std::vector<std::int64_t> sort_offsets_;
+};
+
+template <class ParticleFn, class MovedFn>
+void Accumulator::deposit(tbb::task_arena& arena, tbb::enumerable_thread_specific<Scratch>& scratch,
+                          const AccumulationPlan& plan, std::int64_t n, ParticleFn&& particle, MovedFn&& moved) {
+  plan_ = plan;
+  n_ = n;
+  pending_ = true;
+  try {
+    const std::int64_t nblocks = (n + kDepositBlock - 1) / kDepositBlock;
+    if (plan.uses_blocks()) {
+      const bool fresh = !plan.incremental || !kept_ || n < kept_n_;
+      reuse_n_ = fresh ? 0 : kept_n_;
+      if (fresh) kept_ = false;
+      next_.resize(static_cast<std::size_t>(nblocks));
+      arena.execute([&] {
+        tbb::parallel_for(std::int64_t(0), nblocks, [&](std::int64_t b) {
+          const std::int64_t first = b * kDepositBlock, count = std::min(n, first + kDepositBlock) - first;
+          DepositBlock& next = next_[static_cast<std::size_t>(b)];
+          next.moved.clear();
+          for (std::int64_t i = 0; i < count; ++i)
+            if (first + i >= reuse_n_ || moved(first + i)) next.moved.push_back(static_cast<std::uint32_t>(i));
+          next.deposits.clear();
+          next.offsets.assign(1, 0);
+          if (next.moved.empty()) return;  // the kept block stands
+          Scratch& s = scratch.local();
+          const DepositBlock* old = first < reuse_n_ ? &blocks_[static_cast<std::size_t>(b)] : nullptr;
+          std::size_t m = 0;
+          for (std::int64_t i = 0; i < count; ++i) {
+            if (m < next.moved.size() && next.moved[m] == i) {
+              s.deposits.clear();
+              particle(s, first + i);
+              next.deposits.insert(next.deposits.end(), s.deposits.begin(), s.deposits.end());
+              ++m;
+            } else {  // kept particles lie below reuse_n_, so their old deposits exist
+              next.deposits.insert(next.deposits.end(), old->deposits.begin() + old->offsets[i],
+                                   old->deposits.begin() + old->offsets[i + 1]);
+            }
+            next.offsets.push_back(static_cast<std::uint32_t>(next.deposits.size()));
+          }
+        });
+      });
+    } else if (plan.strategy == Accumulation::atomic) {
+      work_.assign(static_cast<std::size_t>(cells_ + 1), 0.0);
+      arena.execute([&] {
+        tbb::parallel_for(tbb::blocked_range<std::int64_t>(0, n, 256), [&](const tbb::blocked_range<std::int64_t>& r) {
+          Scratch& s = scratch.local();
+          for (std::int64_t p = r.begin(); p < r.end(); ++p) {
+            s.deposits.clear();
+            particle(s, p);
+            for (const Deposit& d : s.deposits)
+              std::atomic_ref<double>(work_[static_cast<std::size_t>(d.cell)]).fetch_add(d.volume, std::memory_order_relaxed);
+          }
+        });
+      });
+    } else {
+      private_dirty_ = true;
+      arena.execute([&] {
+        tbb::parallel_for(tbb::blocked_range<std::int64_t>(0, n, 256), [&](const tbb::blocked_range<std::int64_t>& r) {
+          Scratch& s = scratch.local();
+          PrivateField& f = private_field();
+          for (std::int64_t p = r.begin(); p < r.end(); ++p) {
+            s.deposits.clear();
+            particle(s, p);
+            for (const Deposit& d : s.deposits) add_private(f, d);
+          }
+        });
+      });
+    }
+  } catch (...) {
+    abandon();
+    throw;
+  }
+}
+
+}  // namespace vfe::detail

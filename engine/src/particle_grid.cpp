@@ -1,0 +1,69 @@
+#include "particle_grid.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace vfe::detail {
+
+namespace {
+constexpr std::int64_t kLadderLinear = 20;
+constexpr double kLadderGrowth = 1.05;
+}  // namespace
+
+std::int64_t auto_ladder_value(std::int64_t step) {
+  if (step <= kLadderLinear) return step;
+  return static_cast<std::int64_t>(std::ceil(kLadderLinear * std::pow(kLadderGrowth, double(step - kLadderLinear)) - 1e-9));
+}
+
+std::int64_t auto_step(double diameter, double cell_volume, const AutoRule& rule) {
+  const double chi = std::cbrt(cell_volume) / diameter;
+  const double cap = double(std::max<std::int64_t>(1, std::min(rule.max_grid, kMaxAutoGrid) / 5));
+  const double n_min = std::min(n_min_model(chi, rule.model, rule.criterion), cap);
+  const auto k = std::max<std::int64_t>(1, static_cast<std::int64_t>(std::ceil(n_min * (1.0 - 1e-12))));
+  if (k <= kLadderLinear) return k;
+  return kLadderLinear +
+         static_cast<std::int64_t>(std::ceil(std::log(double(k) / kLadderLinear) / std::log(kLadderGrowth) - 1e-9));
+}
+
+AutoRule TemplateCache::auto_rule(const Options& opts, double cell_size) {
+  AutoRule rule;
+  rule.max_grid = opts.particle_grid_max;
+  rule.model = fitted_jump_model(opts.template_family == TemplateFamily::spherical ? "spherical" : "fibonacci");
+  if (opts.superficial_velocity > 0 && opts.fluid_dt > 0)
+    rule.criterion = flux_jump_criterion(opts.superficial_velocity, opts.fluid_dt, cell_size);
+  return rule;
+}
+
+const kernels::ParticleTemplate& TemplateCache::get(const Options& opts, std::int64_t n) {
+  auto& slot = cache_[{static_cast<int>(opts.template_family), n}];
+  if (!slot) {
+    const int ni = static_cast<int>(n);
+    switch (opts.template_family) {
+      case TemplateFamily::spherical: slot = std::make_unique<kernels::ParticleTemplate>(kernels::make_spherical_template(ni)); break;
+      case TemplateFamily::fibonacci: slot = std::make_unique<kernels::ParticleTemplate>(kernels::make_fibonacci_template(ni)); break;
+      case TemplateFamily::voxel: slot = std::make_unique<kernels::ParticleTemplate>(kernels::make_voxel_template(ni)); break;
+    }
+  }
+  return *slot;
+}
+
+TemplateBank TemplateCache::prepare(const Options& opts, double d_min, double d_max, double v_min, double v_max) {
+  bank_.clear();
+  TemplateBank bank;
+  if (opts.method != Method::pmm) return bank;
+  if (opts.particle_grid > 0) {
+    bank_.push_back(&get(opts, opts.particle_grid));
+    bank.fixed = true;
+  } else if (d_max > 0) {
+    // From the largest cell for the smallest particle to the smallest cell for the largest
+    // (the flux criterion then uses the smallest cell's size).
+    bank.rule = auto_rule(opts, std::cbrt(v_min));
+    bank.first_step = auto_step(d_min, v_max, bank.rule);
+    const std::int64_t last = auto_step(d_max, v_min, bank.rule);
+    for (std::int64_t k = bank.first_step; k <= last; ++k) bank_.push_back(&get(opts, auto_particle_count(k, bank.rule)));
+  }
+  bank.templates = bank_;
+  return bank;
+}
+
+}  // namespace vfe::detail

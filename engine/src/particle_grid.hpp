@@ -1,0 +1,76 @@
+// PMM's templates for a compute: the particle_grid=auto rule (sub-elements from the
+// stability stress test's fitted jump model), the cache of built templates, and the bank
+// of sizes one compute uses.
+#pragma once
+
+#include "options.hpp"
+
+#include <vfe/kernels/particle_template.hpp>
+#include <vfe/stability.hpp>
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <span>
+#include <vector>
+
+namespace vfe::detail {
+
+/// particle_grid=auto: n = 5 * n_min(chi) with n_min from the stress test's fitted jump
+/// model (docs/stability.md) under a jump criterion (DESIGN's default or the flux form).
+struct AutoRule {
+  JumpModel model;
+  double criterion = kDefaultJumpCriterion;
+  std::int64_t max_grid = 20000;  ///< particle_grid_max
+};
+
+/// Largest particle grid `auto` may choose.
+inline constexpr std::int64_t kMaxAutoGrid = 5 * 27 * 1000;
+
+/// Auto step of a particle: the template ladder's index of ceil(n_min(chi)), where the
+/// ladder is 1, 2, ..., 20 and then grows by 5 % a rung (so a polydisperse bed needs few
+/// templates). particle_grid = 5 * auto_ladder_value(step).
+std::int64_t auto_step(double diameter, double cell_volume, const AutoRule& rule);
+std::int64_t auto_ladder_value(std::int64_t step);
+/// Sub-elements auto uses at a step: 5 * auto_ladder_value(step), at most rule.max_grid.
+inline std::int64_t auto_particle_count(std::int64_t step, const AutoRule& rule) {
+  return std::min(5 * auto_ladder_value(step), std::max<std::int64_t>(rule.max_grid, 1));
+}
+
+/// PMM's templates for this compute: one fixed size, or one per auto step.
+struct TemplateBank {
+  std::span<const kernels::ParticleTemplate* const> templates;
+  std::int64_t first_step = 0;  ///< auto step of templates[0]
+  bool fixed = false;           ///< particle_grid given: templates[0] for every particle
+  AutoRule rule;
+
+  /// The template of a sphere of this diameter in a cell of this volume.
+  const kernels::ParticleTemplate& template_for(double diameter, double cell_volume) const {
+    if (templates.size() == 1) return *templates.front();
+    const std::int64_t k = auto_step(diameter, cell_volume, rule) - first_step;
+    const auto last = static_cast<std::int64_t>(templates.size()) - 1;
+    return *templates[static_cast<std::size_t>(k < 0 ? 0 : (k > last ? last : k))];
+  }
+};
+
+/// The sphere templates an engine has built (each built once, kept for later computes) and
+/// the bank of the current compute.
+class TemplateCache {
+ public:
+  /// The auto rule of the options: the template family's fitted jump model, under the flux
+  /// criterion when the host gave U_s and dt_f (for cells of size cell_size), else DESIGN's.
+  static AutoRule auto_rule(const Options& opts, double cell_size);
+
+  /// The template of n sub-elements of the options' family (built on first use).
+  const kernels::ParticleTemplate& get(const Options& opts, std::int64_t n);
+
+  /// Prepares the bank for spheres of diameters [d_min, d_max] in cells of volumes
+  /// [v_min, v_max] (nothing unless method=pmm). Returns the bank; valid until the next call.
+  TemplateBank prepare(const Options& opts, double d_min, double d_max, double v_min, double v_max);
+
+ private:
+  std::map<std::pair<int, std::int64_t>, std::unique_ptr<kernels::ParticleTemplate>> cache_;
+  std::vector<const kernels::ParticleTemplate*> bank_;
+};
+
+}  // namespace vfe::detail

@@ -1,0 +1,189 @@
+// Every method on every mesh kind, the accumulator's strategies after a failure, and the
+// one-engine-one-thread guard.
+#include "particles.hpp"
+
+#include <vfe/engine.hpp>
+
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cmath>
+#include <numeric>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace vfe::test {
+namespace {
+
+const std::string kData = std::string(VFE_SOURCE_DIR) + "/data/";
+
+std::vector<double> uniform(double lo, double h, int n) {
+  std::vector<double> x(static_cast<std::size_t>(n) + 1);
+  for (int i = 0; i <= n; ++i) x[i] = lo + h * i;
+  return x;
+}
+
+double max_abs_difference(const std::vector<double>& a, const std::vector<double>& b) {
+  double m = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) m = std::max(m, std::abs(a[i] - b[i]));
+  return m;
+}
+
+// A rectilinear grid with uniform nodes is the Cartesian grid: every method gives the same
+// field (the rectilinear drivers locate by search and weigh in real coordinates, so only
+// rounding differs), with the periodic axes too.
+TEST(EveryMesh, UniformRectilinearGridEqualsCartesianForEveryMethod) {
+  const double h = 1e-3;
+  Engine cart(grid(h, 12, 10, 8));
+  Engine rect(RectilinearGridSpec{{uniform(0, h, 12), uniform(0, h, 10), uniform(0, h, 8)}});
+  const Particles p = random_spheres(7, 300, -0.5e-3, 10.5e-3, 0.2e-3, 1.3e-3);
+  for (const char* periodic : {"none", "xz"}) {
+    for (const std::string_view m : method_names()) {
+      SCOPED_TRACE(std::string(m) + " periodic=" + periodic);
+      const std::string opts = "method=" + std::string(m) + " periodic=" + periodic + " particle_grid=60";
+      const std::vector<double> a = run(cart, p, opts), b = run(rect, p, opts);
+      EXPECT_LT(max_abs_difference(a, b), 1e-9 * p.volume());
+      EXPECT_NEAR(std::accumulate(b.begin(), b.end(), 0.0), p.volume(), 1e-12 * p.volume());
+    }
+  }
+}
+
+// On box_uniform (a polyMesh of 2 mm box cells) the point methods and big_particle give the
+// Cartesian grid's fields: the same points land in the same cells (the polyMesh's tie rule
+// is the grid's), and the same cell centres lie in each sphere.
+TEST(EveryMesh, BoxPolyMeshEqualsCartesianForPointMethodsAndBigParticle) {
+  Engine poly(PolyMeshSpec{kData + "openfoam/box_uniform_10x10x30"});
+  Engine cart(grid(0.002, 10, 10, 30));
+  Particles p = packed_bed(3000);
+  for (const char* m : {"direct", "pmm", "divided", "big_particle", "exact"}) {
+    SCOPED_TRACE(m);
+    const std::string opts = std::string("method=") + m + " particle_grid=80 outside=centre";
+    const std::vector<double> a = run(cart, p, opts), b = run(poly, p, opts);
+    EXPECT_LT(max_abs_difference(a, b), 1e-12 * p.volume());
+  }
+  // big_particle with particles larger than the cells: shares by the centres within.
+  Particles big;
+  big.add(0.01, 0.01, 0.03, 0.0035);
+  big.add(0.004, 0.016, 0.01, 0.0027);
+  const std::vector<double> a = run(cart, big, "method=big_particle"), b = run(poly, big, "method=big_particle");
+  EXPECT_LT(max_abs_difference(a, b), 1e-12 * big.volume());
+  std::int64_t shared = 0;
+  for (const double v : b) shared += v > 0;
+  EXPECT_GT(shared, 20);  // many cells, not the own cell alone
+}
+
+// Every method that runs on a polyMesh conserves the volume of particles inside it, on the
+// meshes that are not boxes too.
+TEST(EveryMesh, PolyMeshMethodsConserveVolume) {
+  for (const char* mesh : {"cylinder_ogrid_coarse", "snappy_obstacle"}) {
+    Engine e(PolyMeshSpec{kData + "openfoam/" + mesh});
+    const Particles p = random_spheres(3, 200, 0.004, 0.016, 0.0003, 0.0012);
+    for (const std::string_view m : method_names()) {
+      SCOPED_TRACE(std::string(mesh) + " " + std::string(m));
+      try {
+        const std::vector<double> f = run(e, p, "method=" + std::string(m) + " outside=nearest particle_grid=40");
+        EXPECT_NEAR(std::accumulate(f.begin(), f.end(), 0.0), p.volume(), 1e-12 * p.volume());
+      } catch (const Error& err) {
+        EXPECT_EQ(err.status(), VFE_ERROR_UNSUPPORTED) << err.what();
+        EXPECT_EQ(m, "trilinear");  // the one method that needs a structured stencil
+      }
+    }
+  }
+}
+
+// A compute that fails part-way (one particle in the middle spans more cells than allowed)
+// leaves nothing behind under any strategy: the next compute equals a fresh engine's.
+TEST(EveryMesh, FailedComputeLeavesNothingBehindWithEveryStrategy) {
+  const Particles good = random_spheres(11, 3000, 0.0, 0.02, 0.0003, 0.0006);
+  Particles bad = good;
+  bad.radii[1500] = 1.0;  // on periodic axes 1000 cells of 2 mm across each way: over the 2^26 limit
+  for (const char* strategy : {"accumulation=private", "accumulation=atomic", "deterministic=1", "touched_only=1",
+                               "incremental=1", "weights=1", "accumulation=atomic weights=1"}) {
+    SCOPED_TRACE(strategy);
+    const std::string opts = std::string("method=pmm particle_grid=20 threads=2 periodic=xyz ") + strategy;
+    Engine fresh(grid(0.002, 10, 10, 10));
+    const std::vector<double> expected = run(fresh, good, opts);
+    Engine e(grid(0.002, 10, 10, 10));
+    (void)run(e, good, opts);
+    std::vector<double> out(e.cell_count(), 7.0);
+    try {
+      e.compute(bad.view(), out);
+      FAIL() << "the oversized particle was accepted";
+    } catch (const Error& err) {
+      EXPECT_EQ(err.status(), VFE_ERROR_INVALID_ARGUMENT);
+      EXPECT_NE(std::string(err.what()).find("particle 1500"), std::string::npos) << err.what();
+    }
+    EXPECT_EQ(out[0], 7.0);  // untouched
+    const std::vector<double> after = run(e, good, opts);
+    EXPECT_LT(max_abs_difference(after, expected), 1e-15 * good.volume());
+    EXPECT_NEAR(std::accumulate(after.begin(), after.end(), 0.0), good.volume(), 1e-12 * good.volume());
+  }
+}
+
+// Skips that cannot combine with a strategy are refused by configure, naming both.
+TEST(EveryMesh, StrategiesThatCannotCombineAreRefused) {
+  Engine e(grid(1, 4, 4, 4));
+  for (const char* opts : {"touched_only=1 incremental=1", "touched_only=1 accumulation=atomic",
+                           "deterministic=1 accumulation=private", "method=pmm method=exact"}) {
+    SCOPED_TRACE(opts);
+    try {
+      e.configure(opts);
+      FAIL();
+    } catch (const Error& err) {
+      EXPECT_EQ(err.status(), VFE_ERROR_INVALID_ARGUMENT);
+    }
+  }
+  EXPECT_EQ(e.option("accumulation"), "auto");
+  e.configure("incremental=1 accumulation=atomic");  // these combine
+  e.configure("incremental=0 accumulation=auto touched_only=1 deterministic=1");
+}
+
+// Radii whose volume doubles cannot hold are refused with a message (they gave inf/NaN).
+TEST(EveryMesh, VolumesThatOverflowAreRefused) {
+  Engine e(grid(1, 4, 4, 4));
+  for (const double r : {1e103, 1e-120}) {
+    Particles p;
+    p.add(2, 2, 2, r);
+    std::vector<double> out(e.cell_count(), 3.0);
+    try {
+      e.compute(p.view(), out);
+      FAIL() << r;
+    } catch (const Error& err) {
+      EXPECT_EQ(err.status(), VFE_ERROR_INVALID_ARGUMENT);
+      EXPECT_NE(std::string(err.what()).find("volume"), std::string::npos) << err.what();
+    }
+    EXPECT_EQ(out[0], 3.0);
+  }
+}
+
+// One engine called from two threads at once: a call that finds it busy is refused, and
+// every call that succeeds returns the right total (before the guard, 76 of 400 did not).
+TEST(EveryMesh, TwoThreadsOnOneEngineAreRefusedNotCorrupted) {
+  Engine e(grid(0.001, 20, 20, 20));
+  e.configure("method=pmm particle_grid=40 threads=1");
+  const Particles p = random_spheres(5, 4000, 0.0, 0.02, 0.0002, 0.0005);
+  std::atomic<int> ok{0}, refused{0}, wrong{0};
+  auto work = [&] {
+    std::vector<double> out(e.cell_count());
+    for (int i = 0; i < 40; ++i) {
+      try {
+        e.compute(p.view(), out);
+        ++ok;
+        if (std::abs(std::accumulate(out.begin(), out.end(), 0.0) - p.volume()) > 1e-12 * p.volume()) ++wrong;
+      } catch (const Error& err) {
+        ++refused;
+        EXPECT_NE(std::string(err.what()).find("another thread"), std::string::npos) << err.what();
+      }
+    }
+  };
+  std::thread a(work), b(work);
+  a.join();
+  b.join();
+  EXPECT_EQ(wrong.load(), 0);
+  EXPECT_EQ(ok + refused, 80);
+  EXPECT_GT(ok.load(), 0);
+}
+
+}  // namespace
+}  // namespace vfe::test
