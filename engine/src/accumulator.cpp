@@ -11,6 +11,14 @@ Accumulator::PrivateField& Accumulator::private_field() {
   return f;
 }
 
+std::int64_t Accumulator::outside_particles() const {
+  std::int64_t count = 0;
+  if (kept_)
+    for (const DepositBlock& b : blocks_)
+      for (const std::uint8_t f : b.outside) count += f;
+  return count;
+}
+
 void Accumulator::abandon() {
   // Partial deposits may sit anywhere in the private fields: zero them all (a failed
   // compute may cost a pass over the fields; a later good one must not see its volume).
@@ -242,7 +250,7 @@ void Accumulator::commit(tbb::task_arena& arena, bool deterministic) {
       for (const std::uint32_t i : next.moved) moved_list_.push_back(b * kDepositBlock + i);
       std::swap(next, blocks_[b]);
     }
-    kept_ = true;
+    kept_ = reusable_ = true;
     kept_n_ = n_;
   } else if (plan_.uses_blocks()) {
     reduce_blocks(arena, deterministic);
@@ -250,7 +258,7 @@ void Accumulator::commit(tbb::task_arena& arena, bool deterministic) {
     if (plan_.keep_deposits) {
       blocks_.swap(next_);
       next_.resize(blocks_.size());
-      kept_ = true;
+      kept_ = reusable_ = true;
       kept_n_ = n_;
     } else {
       kept_ = false;

@@ -45,6 +45,7 @@ struct DepositBlock {
   std::vector<Deposit> deposits;
   std::vector<std::uint32_t> offsets;
   std::vector<std::uint32_t> moved;  ///< incremental: particles of the block redone by this compute
+  std::vector<std::uint8_t> outside; ///< per particle: some of its volume met the outside policy
 };
 
 class Accumulator {
@@ -67,8 +68,11 @@ class Accumulator {
     return kept_ ? std::span<const DepositBlock>(blocks_) : std::span<const DepositBlock>();
   }
   std::int64_t kept_particles() const { return kept_ ? kept_n_ : 0; }
-  /// Forgets kept deposits (incremental starts afresh next time).
-  void invalidate_kept() { kept_ = false; }
+  /// With kept blocks: the particles some of whose volume met the outside policy.
+  std::int64_t outside_particles() const;
+  /// incremental starts afresh next time (the options changed); the kept deposits still
+  /// describe the last compute (its weights).
+  void invalidate_kept() { reusable_ = false; }
 
   /// Phase 1: computes the deposits of particles [0, n) under the plan in the arena
   /// (incremental: only particles beyond the kept ones and those moved(p) says moved).
@@ -117,7 +121,8 @@ class Accumulator {
 
   // Blocks: those of phase 1 (next_) and the committed ones (blocks_: incremental, weights).
   std::vector<DepositBlock> blocks_, next_;
-  bool kept_ = false;
+  bool kept_ = false;      ///< blocks_ hold the committed field's deposits
+  bool reusable_ = false;  ///< and incremental may reuse them
   std::int64_t kept_n_ = 0, reuse_n_ = 0;
 
   // touched_only: the cells of solid_ that may be non-zero.
@@ -139,9 +144,8 @@ void Accumulator::deposit(tbb::task_arena& arena, tbb::enumerable_thread_specifi
   try {
     const std::int64_t nblocks = (n + kDepositBlock - 1) / kDepositBlock;
     if (plan.uses_blocks()) {
-      const bool fresh = !plan.incremental || !kept_ || n < kept_n_;
+      const bool fresh = !plan.incremental || !kept_ || !reusable_ || n < kept_n_;
       reuse_n_ = fresh ? 0 : kept_n_;
-      if (fresh) kept_ = false;
       next_.resize(static_cast<std::size_t>(nblocks));
       arena.execute([&] {
         tbb::parallel_for(std::int64_t(0), nblocks, [&](std::int64_t b) {
@@ -152,6 +156,7 @@ void Accumulator::deposit(tbb::task_arena& arena, tbb::enumerable_thread_specifi
             if (first + i >= reuse_n_ || moved(first + i)) next.moved.push_back(static_cast<std::uint32_t>(i));
           next.deposits.clear();
           next.offsets.assign(1, 0);
+          next.outside.clear();
           if (next.moved.empty()) return;  // the kept block stands
           Scratch& s = scratch.local();
           const DepositBlock* old = first < reuse_n_ ? &blocks_[static_cast<std::size_t>(b)] : nullptr;
@@ -159,12 +164,15 @@ void Accumulator::deposit(tbb::task_arena& arena, tbb::enumerable_thread_specifi
           for (std::int64_t i = 0; i < count; ++i) {
             if (m < next.moved.size() && next.moved[m] == i) {
               s.deposits.clear();
+              const std::int64_t outside_before = s.outside_particles;
               particle(s, first + i);
               next.deposits.insert(next.deposits.end(), s.deposits.begin(), s.deposits.end());
+              next.outside.push_back(s.outside_particles != outside_before);
               ++m;
             } else {  // kept particles lie below reuse_n_, so their old deposits exist
               next.deposits.insert(next.deposits.end(), old->deposits.begin() + old->offsets[i],
                                    old->deposits.begin() + old->offsets[i + 1]);
+              next.outside.push_back(old->outside[i]);
             }
             next.offsets.push_back(static_cast<std::uint32_t>(next.deposits.size()));
           }

@@ -70,7 +70,7 @@ class CartesianGrid {
     }
     return index(g[0], g[1], g[2]);
   }
-  /// Cell size as DESIGN defines it: cube root of the cell volume.
+  /// Cell size as docs/design.md defines it: cube root of the cell volume.
   double cell_size() const { return std::cbrt(cell_volume()); }
 
  private:

@@ -154,6 +154,7 @@ struct Engine::Impl {
   };
   mutable CellWeights cell_weights;
   std::vector<double> particle_volumes;  ///< weights=1: V_p of the last compute
+  bool weights_kept = false;             ///< the last compute ran with weights=1
 
   template <class Spec>
   explicit Impl(Spec&& spec) : mesh(std::forward<Spec>(spec)), acc(mesh.cell_count()) {
@@ -384,15 +385,18 @@ struct Engine::Impl {
       acc.commit(*arena, opts.deterministic);
     } catch (...) {  // the field may be half written: the next compute starts afresh
       acc.invalidate_kept();
-      have_field = false;
+      have_field = weights_kept = false;
       throw;
     }
     if (opts.incremental) record_snapshot(pa);
     if (opts.weights) record_volumes(pa);
+    weights_kept = opts.weights;
     cell_weights.valid = false;
     rep.dropped_volume = acc.dropped();
     rep.deposited_volume = sum_cells(acc.field(), acc.touched());
     rep.clipped_volume = clipped_volume(acc.field(), acc.touched());
+    count_overfull();
+    if (opts.incremental) rep.outside_particles = acc.outside_particles();
     have_field = true;
     report = rep;
     std::copy(acc.field().begin(), acc.field().end(), out.begin());
@@ -409,6 +413,7 @@ struct Engine::Impl {
       throw Error(VFE_ERROR_UNSUPPORTED, "method=" + std::string(to_string(opts.method)) + " is not available on a " +
                                              mesh.kind_name() + "; " + detail::method_drivers(opts.method).instead);
     const bool with_shapes = pa.shape_ids != nullptr;
+    const bool tolerant = opts.outside == Outside::error && opts.outside_tolerance > 0;
     auto particle = [&](Scratch& s, std::int64_t p) {
       const double r = pa.radius(p);
       detail::Particle part{p, mesh.wrap(pa.centre(p)), r, 0.0, pa.orientation(p), pa.rotation_key(p)};
@@ -421,9 +426,36 @@ struct Engine::Impl {
       } else {
         part.volume = sphere_volume(r);
       }
+      part.outside = opts.outside;
+      if (tolerant && within_tolerance(part)) part.outside = Outside::nearest;
       driver(ctx, s, part);
     };
     acc.deposit(*arena, scratch, pl, pa.n, particle, [&](std::int64_t p) { return moved(pa, p); });
+  }
+
+  /// outside=error with a tolerance: true when the particle, shrunk by outside_tolerance,
+  /// lies inside the mesh (a DEM wall contact, not an error). Exact on the grids (their
+  /// domain is a box); on a polyMesh the shrunk ball's 26 probe points (axes, edges and
+  /// corners of its cube, on its surface) must all lie in cells.
+  bool within_tolerance(const detail::Particle& p) const {
+    const double r = std::max(p.radius * (p.shaped ? 0.0 : 1.0) - opts.outside_tolerance, 0.0);
+    if (mesh.kind() != MeshKind::polyhedral) {
+      const Eigen::AlignedBox3d box = mesh.bounds();
+      for (int d = 0; d < 3; ++d) {
+        if ((mesh.periodic() >> d) & 1u) continue;
+        if (p.centre[d] - r < box.min()[d] || p.centre[d] + r > box.max()[d]) return false;
+      }
+      return true;
+    }
+    const CellLocator& loc = *mesh.locator();
+    for (int i = -1; i <= 1; ++i)
+      for (int j = -1; j <= 1; ++j)
+        for (int k = -1; k <= 1; ++k) {
+          const Eigen::Vector3d dir(i, j, k);
+          const Eigen::Vector3d x = dir.isZero() ? p.centre : Eigen::Vector3d(p.centre + r * dir.normalized());
+          if (loc.locate(x) < 0) return false;
+        }
+    return true;
   }
 
   // --- incremental ------------------------------------------------------------------------
@@ -485,7 +517,7 @@ struct Engine::Impl {
     if (!have_field)
       throw Error(VFE_ERROR_INVALID_ARGUMENT,
                   std::string(what) + " needs a successful compute first; call a compute with weights=1");
-    if (!opts.weights || (acc.blocks().empty() && acc.kept_particles() > 0))
+    if (!weights_kept || (acc.blocks().empty() && acc.kept_particles() > 0))
       throw Error(VFE_ERROR_INVALID_ARGUMENT,
                   std::string(what) + " needs the weights of the last compute; set weights=1 before computing");
     if (static_cast<std::int64_t>(particle_volumes.size()) != acc.kept_particles())
@@ -548,7 +580,6 @@ struct Engine::Impl {
     }
     // Methods without sub-elements report 1 (a pmm compute of no particle reports 0).
     if (rep.particle_grid_max == 0) rep.particle_grid_min = rep.particle_grid_max = opts.method == Method::pmm ? 0 : 1;
-    if (opts.incremental) rep.outside_particles = -1;  // counted over the moved particles only: not known
     if (first_error != std::numeric_limits<std::int64_t>::max()) {
       const Eigen::Vector3d cp = pa.centre(first_error);
       const Eigen::AlignedBox3d box = mesh.bounds();
@@ -561,6 +592,28 @@ struct Engine::Impl {
       throw Error(VFE_ERROR_OUT_OF_DOMAIN, msg.str());
     }
     return rep;
+  }
+
+  /// Cells whose solid volume exceeds their volume (eps < 0) and that excess: a solver must
+  /// not see them silently (a scene that does not match the mesh, cells smaller than the
+  /// particles under a point method).
+  std::int64_t overfull_cells = 0;
+  double overfull_volume = 0;
+  void count_overfull() {
+    overfull_cells = 0;
+    overfull_volume = 0;
+    const std::vector<double>& f = acc.field();
+    auto check = [&](std::int64_t c) {
+      const double excess = f[static_cast<std::size_t>(c)] - mesh.cell_volume(c);
+      if (excess > 1e-12 * mesh.cell_volume(c)) {
+        ++overfull_cells;
+        overfull_volume += excess;
+      }
+    };
+    if (const auto* cells = acc.touched())
+      for (const std::int64_t c : *cells) check(c);
+    else
+      for (std::int64_t c = 0; c < mesh.cell_count(); ++c) check(c);
   }
 
   /// Sum of the field over the given cells (all cells when null).
@@ -759,6 +812,8 @@ double Engine::last_report_value(std::string_view key) const {
       {"clipped_volume", r.clipped_volume},
       {"moved_particles", double(impl_->have_field ? impl_->acc.moved() : 0)},
       {"touched_cells", impl_->have_field && touched ? double(touched->size()) : -1.0},
+      {"overfull_cells", double(impl_->overfull_cells)},
+      {"overfull_volume", impl_->overfull_volume},
   };
   std::string known;
   for (const auto& [name, value] : facts) {

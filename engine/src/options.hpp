@@ -44,7 +44,7 @@ struct Options {
   /// sphere's volume.
   double gamma = kVolumeCube;
   /// particle_grid=auto's flux form (both > 0): the jump a step may cause is
-  /// U_s dt_f / dx instead of DESIGN's default pi / (6 * 27). 0 = not given.
+  /// U_s dt_f / dx instead of the default pi / (6 * 27) of docs/design.md section 8. 0 = not given.
   double superficial_velocity = 0;
   double fluid_dt = 0;
   std::string log_level = "warn";

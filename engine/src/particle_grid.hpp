@@ -17,7 +17,7 @@
 namespace vfe::detail {
 
 /// particle_grid=auto: n = 5 * n_min(chi) with n_min from the stress test's fitted jump
-/// model (docs/stability.md) under a jump criterion (DESIGN's default or the flux form).
+/// model (docs/stability.md) under a jump criterion (the default of docs/design.md section 8, or the flux form).
 struct AutoRule {
   JumpModel model;
   double criterion = kDefaultJumpCriterion;
@@ -58,7 +58,7 @@ struct TemplateBank {
 class TemplateCache {
  public:
   /// The auto rule of the options: the template family's fitted jump model, under the flux
-  /// criterion when the host gave U_s and dt_f (for cells of size cell_size), else DESIGN's.
+  /// criterion when the host gave U_s and dt_f (for cells of size cell_size), else the default.
   static AutoRule auto_rule(const Options& opts, double cell_size);
 
   /// The template of n sub-elements of the options' family (built on first use).

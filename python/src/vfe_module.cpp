@@ -90,6 +90,53 @@ Column<T> column(const py::handle& obj, const char* name, const char* dtype, py:
   return c;
 }
 
+template <class T>
+std::span<T> as_span(py::array_t<T>& a) {
+  return {a.mutable_data(), static_cast<std::size_t>(a.size())};
+}
+
+/// A float64 table of `rows` rows, (rows,) or (rows, k), C-contiguous (copied if not).
+struct Components {
+  py::array_t<double, py::array::c_style | py::array::forcecast> data;
+  std::int32_t k = 1;
+  bool two_d = false;
+  std::span<const double> span() const { return {data.data(), static_cast<std::size_t>(data.size())}; }
+  /// A new array of `rows` rows with the same components.
+  py::array_t<double> like(py::ssize_t rows) const {
+    return two_d ? py::array_t<double>({rows, py::ssize_t{k}}) : py::array_t<double>(rows);
+  }
+};
+
+Components components(const py::object& obj, const char* name, py::ssize_t rows, const char* what) {
+  if (!py::isinstance<py::array>(obj) ||
+      !py::reinterpret_borrow<py::array>(obj).dtype().equal(py::dtype::of<double>()))
+    throw py::value_error(std::string(name) + " must be a float64 numpy array; use np.asarray(" + name +
+                          ", dtype=np.float64)");
+  py::array a = py::reinterpret_borrow<py::array>(obj);
+  if ((a.ndim() != 1 && a.ndim() != 2) || a.shape(0) != rows || (a.ndim() == 2 && a.shape(1) < 1))
+    throw py::value_error(std::string(name) + " must have shape (" + std::to_string(rows) + ",) or (" +
+                          std::to_string(rows) + ", k), one row per " + what + " (got " + shape_text(a) + ")");
+  Components c;
+  c.two_d = a.ndim() == 2;
+  c.k = c.two_d ? static_cast<std::int32_t>(a.shape(1)) : 1;
+  c.data = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(a);
+  return c;
+}
+
+/// A 1-D (width 0) or (n, width) array of exactly dtype T, C-contiguous (copied if not).
+template <class T>
+py::array_t<T, py::array::c_style | py::array::forcecast> mesh_array(const py::object& obj, const char* name,
+                                                                      const char* dtype, py::ssize_t width) {
+  if (!py::isinstance<py::array>(obj) || !py::reinterpret_borrow<py::array>(obj).dtype().equal(py::dtype::of<T>()))
+    throw py::value_error(std::string(name) + " must be a numpy array of " + dtype + "; use np.asarray(" + name +
+                          ", dtype=np." + dtype + ")");
+  py::array a = py::reinterpret_borrow<py::array>(obj);
+  if (a.ndim() != (width ? 2 : 1) || (width && a.shape(1) != width))
+    throw py::value_error(std::string(name) + " must have shape " + (width ? "(n, 3)" : "(n,)") + " (got " +
+                          shape_text(a) + ")");
+  return py::array_t<T, py::array::c_style | py::array::forcecast>::ensure(a);
+}
+
 /// The particle count of a centres argument, or a clear error.
 py::ssize_t particle_count(const py::handle& centres) {
   if (!py::isinstance<py::array>(centres))
@@ -174,7 +221,7 @@ class PyEngine {
   }
 
   py::array_t<double> compute(const py::object& centres, const py::object& radii, const py::object& orientations,
-                              const py::object& shape_ids, const py::object& out) {
+                              const py::object& shape_ids, const py::object& ids, const py::object& out) {
     const py::ssize_t n = particle_count(centres);
     int copies = 0;
     const Column<double> c = column<double>(centres, "centres", "float64", n, 3, copies);
@@ -182,15 +229,9 @@ class PyEngine {
     std::optional<Column<double>> q;
     if (!orientations.is_none()) q = column<double>(orientations, "orientations", "float64", n, 4, copies);
     std::optional<Column<std::int32_t>> s;
-    if (!shape_ids.is_none()) {
-      s = column<std::int32_t>(shape_ids, "shape_ids", "int32", n, 0, copies);
-      if (n > 1 && s->stride != 1) {  // the view has no stride for shape ids
-        s->held = py::array_t<std::int32_t, py::array::c_style | py::array::forcecast>::ensure(s->held);
-        s->data = s->held.data();
-        s->stride = 1;
-        ++copies;
-      }
-    }
+    if (!shape_ids.is_none()) s = column<std::int32_t>(shape_ids, "shape_ids", "int32", n, 0, copies);
+    std::optional<Column<std::int64_t>> id;
+    if (!ids.is_none()) id = column<std::int64_t>(ids, "ids", "int64", n, 0, copies);
     py::array_t<double> result;
     if (out.is_none()) {
       result = py::array_t<double>(engine_.cell_count());
@@ -204,17 +245,25 @@ class PyEngine {
         throw py::value_error("out must be a writeable C-contiguous float64 array of shape (" +
                               std::to_string(engine_.cell_count()) + ",)");
     }
-    vfe::ParticleView view;
+    // The C API's view: byte strides, optional shape ids and host ids, all read in place.
+    vfe_particles view{};
     view.n = n;
     view.centres = c.data;
-    view.centre_stride = c.stride;
+    view.centres_stride = c.stride * std::int64_t(sizeof(double));
     view.radii = r.data;
-    view.radius_stride = r.stride;
+    view.radii_stride = r.stride * std::int64_t(sizeof(double));
     if (q) {
       view.orientations = q->data;
-      view.orientation_stride = q->stride;
+      view.orientations_stride = q->stride * std::int64_t(sizeof(double));
     }
-    if (s) view.shape_ids = s->data;
+    if (s) {
+      view.shape_ids = s->data;
+      view.shape_ids_stride = s->stride * std::int64_t(sizeof(std::int32_t));
+    }
+    if (id) {
+      view.ids = id->data;
+      view.ids_stride = id->stride * std::int64_t(sizeof(std::int64_t));
+    }
     const std::span<double> field(result.mutable_data(), static_cast<std::size_t>(result.size()));
     {
       py::gil_scoped_release unlocked;
@@ -223,6 +272,37 @@ class PyEngine {
     }
     input_copies_ = copies;
     return result;
+  }
+
+  /// The last compute's weights (option weights=1) in CSR form: offsets (particles + 1),
+  /// cells and fractions (entries).
+  py::tuple weights() {
+    auto lock = acquire();
+    const vfe::Engine::WeightsSize size = engine_.weights_size();
+    py::array_t<std::int64_t> offsets(size.particles + 1), cells(size.entries);
+    py::array_t<double> fractions(size.entries);
+    engine_.weights(as_span(offsets), as_span(cells), as_span(fractions));
+    return py::make_tuple(offsets, cells, fractions);
+  }
+
+  /// Per-particle values (particles,) or (particles, k) to cells (cell_count,) or (cell_count, k).
+  py::array_t<double> deposit(const py::object& values) {
+    auto lock = acquire();
+    const auto rows = static_cast<py::ssize_t>(engine_.weights_size().particles);
+    const Components in = components(values, "values", rows, "the last compute's particles");
+    py::array_t<double> out = in.like(engine_.cell_count());
+    engine_.deposit(in.k, in.span(), as_span(out));
+    return out;
+  }
+
+  /// A cell field (cell_count,) or (cell_count, k) to the last compute's particles.
+  py::array_t<double> interpolate(const py::object& field) {
+    auto lock = acquire();
+    const auto particles = static_cast<py::ssize_t>(engine_.weights_size().particles);
+    const Components in = components(field, "field", engine_.cell_count(), "cell_count");
+    py::array_t<double> out = in.like(particles);
+    engine_.interpolate(in.k, in.span(), as_span(out));
+    return out;
   }
 
   py::array_t<double> void_fraction() {
@@ -460,6 +540,33 @@ PYBIND11_MODULE(_core, m) {
           "polymesh",
           [](const py::object& dir) { return std::make_unique<PyEngine>(vfe::PolyMeshSpec{path_string(dir)}); },
           py::arg("path"), "OpenFOAM polyMesh: a case folder, its constant folder or the polyMesh folder.")
+      .def_static(
+          "polymesh_arrays",
+          [](const py::object& points, const py::object& face_offsets, const py::object& face_points,
+             const py::object& owner, const py::object& neighbour) {
+            const auto p = mesh_array<double>(points, "points", "float64", 3);
+            const auto fo = mesh_array<std::int64_t>(face_offsets, "face_offsets", "int64", 0);
+            const auto fp = mesh_array<std::int64_t>(face_points, "face_points", "int64", 0);
+            const auto ow = mesh_array<std::int64_t>(owner, "owner", "int64", 0);
+            const auto nb = mesh_array<std::int64_t>(neighbour, "neighbour", "int64", 0);
+            if (fo.size() != ow.size() + 1)
+              throw py::value_error("face_offsets must have one entry per face plus one (" +
+                                    std::to_string(ow.size() + 1) + "), got " + std::to_string(fo.size()));
+            vfe::PolyMeshArrays mesh;
+            mesh.n_points = p.shape(0);
+            mesh.points = p.data();
+            mesh.n_faces = ow.size();
+            mesh.face_offsets = fo.data();
+            mesh.face_points = fp.data();
+            mesh.owner = ow.data();
+            mesh.n_internal_faces = nb.size();
+            mesh.neighbour = nb.data();
+            return std::make_unique<PyEngine>(mesh);
+          },
+          py::arg("points"), py::arg("face_offsets"), py::arg("face_points"), py::arg("owner"), py::arg("neighbour"),
+          "Face-based mesh from arrays, ordered as OpenFOAM orders it (internal faces first): points (n, 3) "
+          "float64; face_offsets (faces + 1,), face_points, owner (faces,), neighbour (internal faces,) int64. "
+          "Copied; the same engine as Engine.polymesh on the same mesh.")
       .def("configure", &PyEngine::configure, py::arg("options") = "",
            "Applies a 'key=value key=value' string and/or keywords (bools as 0/1); all or nothing.")
       .def("options", &PyEngine::options, "All options and their current values as a dict of strings.")
@@ -469,11 +576,19 @@ PYBIND11_MODULE(_core, m) {
       .def("cell_volumes", &PyEngine::cell_volumes, "Cell volumes, (cell_count,) float64, in cell order.")
       .def("cell_centres", &PyEngine::cell_centres, "Cell centres, (cell_count, 3) float64, in cell order.")
       .def("compute", &PyEngine::compute, py::arg("centres"), py::arg("radii"), py::arg("orientations") = py::none(),
-           py::arg("shape_ids") = py::none(), py::kw_only(), py::arg("out") = py::none(),
+           py::arg("shape_ids") = py::none(), py::kw_only(), py::arg("ids") = py::none(), py::arg("out") = py::none(),
            "Solid volume per cell of the particles: centres (n, 3), radii (n,) (the scales with shape_ids), "
-           "orientations (n, 4) quaternions w, x, y, z, all float64; shape_ids (n,) int32. Arrays whose rows "
+           "orientations (n, 4) quaternions w, x, y, z, all float64; shape_ids (n,) int32; ids (n,) int64, the "
+           "host's particle ids (orientation=random follows them). Arrays whose rows "
            "are contiguous are read in place at any row stride; other layouts are copied once "
            "(input_copies says how many). Returns (cell_count,) float64, or fills out. The GIL is released.")
+      .def("weights", &PyEngine::weights,
+           "With weights=1: the last compute's (offsets, cells, fractions), per particle its cells and the "
+           "fraction of its volume in each (CSR).")
+      .def("deposit", &PyEngine::deposit, py::arg("values"),
+           "With weights=1: per-particle values (particles,) or (particles, k) summed into cells by the weights.")
+      .def("interpolate", &PyEngine::interpolate, py::arg("field"),
+           "With weights=1: a cell field (cell_count,) or (cell_count, k) at the last compute's particles.")
       .def("void_fraction", &PyEngine::void_fraction, "Void fraction of the last compute, (cell_count,) float64.")
       .def("report", &PyEngine::report,
            "Facts about the last compute: every vfe_report field and moved_particles, touched_cells.")

@@ -195,6 +195,10 @@ def test_shapes_by_id_deposit_their_scaled_volume():
     for method in ("direct", "pmm"):
         e.configure(method=method)
         assert e.compute(centres, scales, shape_ids=ids).sum() == pytest.approx(expected, rel=1e-12)
+    table = np.zeros((3, 2), dtype=np.int32)  # shape ids as a column of a wider table
+    table[:, 0] = ids
+    by_id = e.compute(centres, scales, shape_ids=ids)
+    assert np.array_equal(e.compute(centres, scales, shape_ids=table[:, 0]), by_id) and e.input_copies == 0
     with pytest.raises(ValueError, match="int32"):
         e.compute(centres, scales, shape_ids=ids.astype(np.int64))
     with pytest.raises(vfe.Error):

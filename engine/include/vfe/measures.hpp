@@ -1,4 +1,4 @@
-// Accuracy measures of DESIGN section 5, shared by tests, apps and reports.
+// Accuracy measures of docs/design.md section 8, shared by tests, apps and reports.
 #pragma once
 
 #include <cstdint>

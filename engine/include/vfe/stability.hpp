@@ -1,4 +1,4 @@
-// Stability stress test of DESIGN section 5: single spheres (or shaped particles) moving in
+// Stability stress test of docs/design.md section 8: single spheres (or shaped particles) moving in
 // straight lines across cells in small steps; per step and cell the change of the void
 // fraction of a method is compared with the exact one (shapes: a fine pmm).
 #pragma once
@@ -11,7 +11,7 @@
 
 namespace vfe {
 
-/// The default criterion of DESIGN section 5: the direct method's jump at chi = 3.
+/// The default criterion of docs/design.md section 8: the direct method's jump at chi = 3.
 inline constexpr double kDefaultJumpCriterion = std::numbers::pi / (6.0 * 27.0);
 
 struct StabilityOptions {

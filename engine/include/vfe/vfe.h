@@ -68,8 +68,11 @@ VFE_API int64_t vfe_cell_count(const vfe_engine* e);
 /** Writes the volume of every cell (cell_count values). */
 VFE_API vfe_status vfe_cell_volumes(const vfe_engine* e, double* out);
 
-/** Solid volume per cell of n spheres (centres 3n, radii n, orientations 4n quaternions
- *  w,x,y,z or NULL). solid_volume gets cell_count values (overwritten, not added to).
+/** Solid volume per cell of n spheres (centres 3n: x, y, z per particle; radii n;
+ *  orientations 4n quaternions w, x, y, z or NULL: read only under orientation=given, where
+ *  each particle's template is rotated by its quaternion (normalised); orientation=random
+ *  rotates each template by a fixed pseudo-random rotation of the particle's index and
+ *  orientation=none not at all, both ignoring orientations). solid_volume gets cell_count values (overwritten, not added to).
  *  The host's arrays are read, not copied, and not kept after the call. */
 VFE_API vfe_status vfe_compute(vfe_engine* e, int64_t n, const double* centres,
                                const double* radii, const double* orientations,
@@ -156,8 +159,10 @@ typedef struct vfe_report {
 VFE_API vfe_status vfe_last_report(const vfe_engine* e, vfe_report* out);
 
 /** One fact of the last successful compute by name: any field of vfe_report, and
- *  "moved_particles" (particles computed anew; with incremental=1 those that moved) and
- *  "touched_cells" (cells with solid volume; with touched_only=1, else -1). Unknown keys
+ *  "moved_particles" (particles computed anew; with incremental=1 those that moved),
+ *  "touched_cells" (cells with solid volume; with touched_only=1, else -1), "overfull_cells"
+ *  and "overfull_volume" (cells whose solid volume exceeds their volume, eps < 0, and the
+ *  excess: a scene that does not match the mesh, or cells smaller than the particles). Unknown keys
  *  give VFE_ERROR_INVALID_ARGUMENT. New facts get new keys, so vfe_report never changes. */
 VFE_API vfe_status vfe_last_report_value(const vfe_engine* e, const char* key, double* out);
 

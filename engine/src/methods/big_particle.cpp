@@ -37,7 +37,7 @@ void big_particle_particle(const Context& ctx, Scratch& s, const Particle& p) {
   }
   bool flagged = false;
   if (far) {  // absurdly far from the mesh: one point
-    outside(ctx, s, p, p.volume, grid.nearest(c), flagged, ctx.opts.outside);
+    outside(ctx, s, p, p.volume, grid.nearest(c), flagged, p.outside);
     return;
   }
   s.sub_elements += std::int64_t(m[0]) * m[1] * m[2];
@@ -63,14 +63,14 @@ void big_particle_particle(const Context& ctx, Scratch& s, const Particle& p) {
         s.window[static_cast<std::size_t>(l[0] + w.m[0] * (l[1] + w.m[1] * l[2]))] += v;
       });
   if (count > 0) {
-    emit_window(ctx, s, p, w, ctx.opts.outside);
+    emit_window(ctx, s, p, w, p.outside);
     return;
   }
   // No cell centre within the particle: its own cell.
   if (const std::int64_t cell = grid.locate(c); cell >= 0)
     s.add(cell, p.volume);
   else
-    outside(ctx, s, p, p.volume, grid.nearest(c), flagged, ctx.opts.outside);
+    outside(ctx, s, p, p.volume, grid.nearest(c), flagged, p.outside);
 }
 
 }  // namespace vfe::detail

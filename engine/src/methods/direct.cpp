@@ -13,7 +13,7 @@ void direct_particle(const Context& ctx, Scratch& s, const Particle& p) {
   if (cell >= 0)
     s.add(cell, p.volume);
   else
-    outside(ctx, s, p, p.volume, ctx.grid.nearest(at), flagged, ctx.opts.outside);
+    outside(ctx, s, p, p.volume, ctx.grid.nearest(at), flagged, p.outside);
 }
 
 }  // namespace vfe::detail

@@ -9,7 +9,7 @@
 namespace vfe::detail {
 
 void divided_particle(const Context& ctx, Scratch& s, const Particle& p) {
-  const Outside policy = ctx.opts.outside == Outside::nearest ? Outside::centre : ctx.opts.outside;
+  const Outside policy = p.outside == Outside::nearest ? Outside::centre : p.outside;
   const Eigen::Matrix3d identity = Eigen::Matrix3d::Identity();  // CFDEM's points are not rotated
   deposit_points(ctx, s, p, ctx.divided, &identity, policy);
 }

@@ -129,6 +129,9 @@ struct Particle {
   const kernels::ParticleTemplate* shape_template = nullptr;
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
   bool shaped = false;
+  /// The outside policy for this particle: the option's, except that outside=error lets a
+  /// particle within outside_tolerance of the mesh go to the nearest cells.
+  Outside outside = Outside::nearest;
 };
 
 /// What every driver reads during one compute (never writes), whatever the mesh.

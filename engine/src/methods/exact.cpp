@@ -29,7 +29,7 @@ void exact_particle(const Context& ctx, Scratch& s, const Particle& p) {
   }
   bool flagged = false;
   if (empty) {
-    outside(ctx, s, p, p.volume, grid.nearest(c), flagged, ctx.opts.outside);
+    outside(ctx, s, p, p.volume, grid.nearest(c), flagged, p.outside);
     return;
   }
   int m[3];
@@ -49,7 +49,7 @@ void exact_particle(const Context& ctx, Scratch& s, const Particle& p) {
                                  });
   // What the patch misses lies outside the mesh (beyond round-off).
   const double rest = p.volume - inside;
-  if (rest > 1e-12 * p.volume) outside(ctx, s, p, rest, grid.nearest(c), flagged, ctx.opts.outside);
+  if (rest > 1e-12 * p.volume) outside(ctx, s, p, rest, grid.nearest(c), flagged, p.outside);
 }
 
 }  // namespace vfe::detail

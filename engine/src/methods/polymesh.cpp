@@ -624,7 +624,7 @@ void polymesh_direct(const PolyContext& ctx, Scratch& s, const Particle& p) {
   if (cell >= 0)
     s.add(cell, p.volume);
   else
-    outside_poly(ctx, s, p, p.volume, at, centre_cell, flagged, ctx.opts.outside);
+    outside_poly(ctx, s, p, p.volume, at, centre_cell, flagged, p.outside);
 }
 
 void polymesh_pmm(const PolyContext& ctx, Scratch& s, const Particle& p) {
@@ -634,12 +634,12 @@ void polymesh_pmm(const PolyContext& ctx, Scratch& s, const Particle& p) {
     const std::int64_t cell = centre_cell >= 0 ? centre_cell : ctx.locator->nearest_cell(p.centre);
     t = &ctx.bank.template_for(2 * p.radius, ctx.locator->mesh().cell_volume(cell));
   }
-  polymesh_points(ctx, s, p, *t, particle_rotation(ctx.opts, p), ctx.opts.outside, centre_cell);
+  polymesh_points(ctx, s, p, *t, particle_rotation(ctx.opts, p), p.outside, centre_cell);
 }
 
 void polymesh_divided(const PolyContext& ctx, Scratch& s, const Particle& p) {
   // As in CFDEM: never rotated, and a point in no cell goes to the particle's own cell.
-  const Outside policy = ctx.opts.outside == Outside::nearest ? Outside::centre : ctx.opts.outside;
+  const Outside policy = p.outside == Outside::nearest ? Outside::centre : p.outside;
   polymesh_points(ctx, s, p, ctx.divided, Eigen::Matrix3d::Identity(), policy, ctx.locator->locate(p.centre));
 }
 
@@ -663,7 +663,7 @@ void polymesh_big_particle(const PolyContext& ctx, Scratch& s, const Particle& p
     if (centre_cell >= 0)
       s.add(centre_cell, p.volume);
     else
-      outside_poly(ctx, s, p, p.volume, c, centre_cell, flagged, ctx.opts.outside);
+      outside_poly(ctx, s, p, p.volume, c, centre_cell, flagged, p.outside);
     return;
   }
   const double share = p.volume / double(count);

@@ -72,7 +72,7 @@ void polymesh_exact(const PolyContext& ctx, Scratch& s, const Particle& p) {
   // What the cells do not hold lies beyond the mesh (beyond round-off).
   const double rest = p.volume - inside;
   bool flagged = false;
-  if (rest > 1e-12 * p.volume) outside_poly(ctx, s, p, rest, c, centre_cell, flagged, ctx.opts.outside);
+  if (rest > 1e-12 * p.volume) outside_poly(ctx, s, p, rest, c, centre_cell, flagged, p.outside);
 }
 
 }  // namespace vfe::detail

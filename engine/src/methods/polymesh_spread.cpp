@@ -54,7 +54,7 @@ void spread(const PolyContext& ctx, Scratch& s, const Particle& p, double half, 
   const double rest = 1.0 - inside;
   bool flagged = false;
   if (rest > 1e-12) {
-    outside_poly(ctx, s, p, rest * p.volume, c, centre_cell, flagged, ctx.opts.outside);
+    outside_poly(ctx, s, p, rest * p.volume, c, centre_cell, flagged, p.outside);
   } else if (inside > 0) {
     // Within rounding (and gaussian's quadrature tolerance) of the whole kernel: make the
     // shares sum to the particle's volume exactly.

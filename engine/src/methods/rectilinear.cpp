@@ -178,7 +178,7 @@ void deposit_separable(const RectilinearContext& ctx, Scratch& s, const Particle
                              [&s, m0, m1](int i, int j, int k, double v) {
                                s.window[static_cast<std::size_t>(i + m0 * (j + m1 * k))] = v;
                              });
-  emit_window(ctx, s, p, w, 1.0, ctx.opts.outside);
+  emit_window(ctx, s, p, w, 1.0, p.outside);
 }
 
 /// A separable kernel of half-width `half`: axis_weights(centre, nodes, m, out) per axis over
@@ -233,19 +233,19 @@ void rectilinear_direct(const RectilinearContext& ctx, Scratch& s, const Particl
   if (const std::int64_t cell = ctx.grid.locate(at); cell >= 0)
     s.add(cell, p.volume);
   else
-    outside(ctx, s, p, p.volume, at, ctx.opts.outside, flagged);
+    outside(ctx, s, p, p.volume, at, p.outside, flagged);
 }
 
 void rectilinear_pmm(const RectilinearContext& ctx, Scratch& s, const Particle& p) {
   const kernels::ParticleTemplate& t =
       p.shape_template ? *p.shape_template
                        : ctx.bank.template_for(2 * p.radius, ctx.grid.cell_volume(ctx.grid.nearest(p.centre)));
-  deposit_points(ctx, s, p, t, particle_rotation(ctx.opts, p), ctx.opts.outside);
+  deposit_points(ctx, s, p, t, particle_rotation(ctx.opts, p), p.outside);
 }
 
 void rectilinear_divided(const RectilinearContext& ctx, Scratch& s, const Particle& p) {
   // As in CFDEM: never rotated, and a point in no cell goes to the particle's own cell.
-  const Outside policy = ctx.opts.outside == Outside::nearest ? Outside::centre : ctx.opts.outside;
+  const Outside policy = p.outside == Outside::nearest ? Outside::centre : p.outside;
   deposit_points(ctx, s, p, ctx.divided, Eigen::Matrix3d::Identity(), policy);
 }
 
@@ -272,7 +272,7 @@ void rectilinear_exact(const RectilinearContext& ctx, Scratch& s, const Particle
   }
   bool flagged = false;
   if (empty) {
-    outside(ctx, s, p, p.volume, c, ctx.opts.outside, flagged);
+    outside(ctx, s, p, p.volume, c, p.outside, flagged);
     return;
   }
   int m[3];
@@ -299,7 +299,7 @@ void rectilinear_exact(const RectilinearContext& ctx, Scratch& s, const Particle
                                    inside += v;
                                  });
   const double rest = p.volume - inside;  // beyond the mesh, up to round-off
-  if (rest > 1e-12 * p.volume) outside(ctx, s, p, rest, c, ctx.opts.outside, flagged);
+  if (rest > 1e-12 * p.volume) outside(ctx, s, p, rest, c, p.outside, flagged);
 }
 
 void rectilinear_gaussian(const RectilinearContext& ctx, Scratch& s, const Particle& p) {
@@ -393,7 +393,7 @@ void rectilinear_big_particle(const RectilinearContext& ctx, Scratch& s, const P
         if (!out)
           s.add(cell, v);
         else
-          apply_outside(s, p, v, ctx.opts.outside, ctx.grid.cell_count(), flagged, [&] { return cell; },
+          apply_outside(s, p, v, p.outside, ctx.grid.cell_count(), flagged, [&] { return cell; },
                         [&] { return ctx.grid.nearest(p.centre); });
       });
   if (count > 0) return;
@@ -401,7 +401,7 @@ void rectilinear_big_particle(const RectilinearContext& ctx, Scratch& s, const P
   if (const std::int64_t cell = ctx.grid.locate(c); cell >= 0)
     s.add(cell, p.volume);
   else
-    outside(ctx, s, p, p.volume, c, ctx.opts.outside, flagged);
+    outside(ctx, s, p, p.volume, c, p.outside, flagged);
 }
 
 }  // namespace vfe::detail

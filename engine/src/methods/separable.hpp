@@ -18,7 +18,7 @@ inline void deposit_separable(const Context& ctx, Scratch& s, const Particle& p,
                              [&s, m0, m1](int i, int j, int k, double v) {
                                s.window[static_cast<std::size_t>(i + m0 * (j + m1 * k))] = v;
                              });
-  emit_window(ctx, s, p, w, ctx.opts.outside);
+  emit_window(ctx, s, p, w, p.outside);
 }
 
 /// A kernel of half-width `half` around the centre: the whole particle to one cell when
