@@ -1,13 +1,16 @@
 #!/usr/bin/env bash
 # Installs vfe's dependencies from Debian 12 packages when missing, then configures and
-# builds one CMake preset (default: release). Usage: scripts/setup.sh [release|audit|profiling]
+# builds one CMake preset (default: release). Usage: scripts/setup.sh [release|audit|tsan|profiling]
+# tsan first builds oneTBB with ThreadSanitizer (scripts/tbb_tsan.sh). Compiles go through
+# ccache (cache in HOME), so repeated builds of a preset are cheap.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 preset="${1:-release}"
 
 packages=(g++ cmake ninja-build pkg-config libtbb-dev libeigen3-dev libnanoflann-dev libspdlog-dev
-          libyaml-cpp-dev libcli11-dev zlib1g-dev libgtest-dev libbenchmark-dev python3-matplotlib
+          libyaml-cpp-dev libcli11-dev zlib1g-dev libgtest-dev libbenchmark-dev python3-matplotlib ccache
           pybind11-dev python3-pybind11 python3-numpy python3-pytest)
+if [ "$preset" = tsan ]; then packages+=(dpkg-dev xz-utils); fi
 # LAMMPS for examples/lammps_pour.py, where the distribution has it (liblammps-dev gives the
 # liblammps.so that the Python module loads).
 for p in python3-lammps liblammps-dev; do
@@ -28,5 +31,6 @@ if [ ${#missing[@]} -gt 0 ]; then
   DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 fi
 
+if [ "$preset" = tsan ]; then scripts/tbb_tsan.sh; fi
 cmake --preset "$preset" >/dev/null
 cmake --build --preset "$preset" -j "$(nproc)"

@@ -84,6 +84,8 @@ extern "C" {
 
 const char* vfe_version(void) { return kVersion; }
 
+uint32_t vfe_version_number(void) { return VFE_VERSION_NUMBER; }
+
 const char* vfe_status_name(vfe_status s) {
   switch (s) {
     case VFE_OK: return "VFE_OK";

@@ -10,6 +10,7 @@
 #include "particle_grid.hpp"
 #include "particle_arrays.hpp"
 #include "shape_spec.hpp"
+#include "smoothing.hpp"
 
 #include <vfe/kernels/divided.hpp>
 #include <vfe/kernels/particle_template.hpp>
@@ -123,6 +124,9 @@ struct Engine::Impl {
   const ParticleTemplate divided = kernels::make_divided_template();
   Report report{};
   bool have_field = false;
+  // smoothing_length > 0: the smoothed field (what the host sees) and the mesh's face graph.
+  std::vector<double> smoothed;
+  std::unique_ptr<detail::FaceGraph> faces;
   std::atomic<bool> busy{false};
 
   // --- shapes ---------------------------------------------------------------------------
@@ -239,11 +243,11 @@ struct Engine::Impl {
              "orientation=random";
     } else {
       const double v = particle_volume(pa, p);
-      if (!std::isfinite(v) || !(v >= std::numeric_limits<double>::min()))
+      if (!(v >= std::numeric_limits<double>::min() && v < 1e300))
         msg << size_word << r << " gives a volume of " << v
             << " that doubles cannot hold; pass sizes in units where a particle's volume lies between 1e-300 and "
                "1e300 (e.g. millimetres instead of metres for tiny particles)";
-      else if (!(c.cwiseAbs().maxCoeff() + r < 1e300))
+      else if (!(c.cwiseAbs().sum() + r < 1e300))
         msg << "centre and " << size_word << r << " reach beyond 1e300; pass positions and sizes near the mesh";
     }
     return msg.str();
@@ -260,28 +264,34 @@ struct Engine::Impl {
       return tbb::parallel_deterministic_reduce(
           tbb::blocked_range<std::int64_t>(0, pa.n, 4096), Validation{},
           [&](const tbb::blocked_range<std::int64_t>& r, Validation acc) {
+            const bool given = opts.orientation == Orientation::given;
+            const auto nshapes = static_cast<std::int32_t>(shapes.size());
             for (std::int64_t p = r.begin(); p < r.end(); ++p) {
-              const Eigen::Vector3d c = pa.centre(p);
+              const double* c = reinterpret_cast<const double*>(pa.centres + p * pa.centres_stride);
               const double rad = pa.radius(p);
-              bool bad = !c.allFinite() || !(rad > 0) || !std::isfinite(rad);
               bool sphere = true;
-              if (!bad && pa.shape_ids) {
+              double vol;
+              if (pa.shape_ids) {
                 const std::int32_t id = pa.shape_id(p);
-                bad = id < 0 || id >= static_cast<std::int32_t>(shapes.size());
-                sphere = !bad && shapes[id].is_sphere;
+                if (id < 0 || id >= nshapes) {
+                  acc.first_bad = std::min(acc.first_bad, p);
+                  continue;
+                }
+                sphere = shapes[id].is_sphere;
+                vol = sphere ? sphere_volume(rad) : shapes[id].shape.volume() * rad * rad * rad;
+              } else {
+                vol = sphere_volume(rad);
               }
-              if (!bad && opts.orientation == Orientation::given) {
+              // One comparison chain settles NaN, infinities, r <= 0 and volumes doubles
+              // cannot hold (every comparison with NaN is false).
+              bool ok = std::abs(c[0]) + std::abs(c[1]) + std::abs(c[2]) + rad < 1e300 && rad > 0 &&
+                        vol >= std::numeric_limits<double>::min() && vol < 1e300;
+              if (ok && given) {
                 const double* q = pa.orientation(p);
                 const double nn = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
-                bad = !std::isfinite(nn) || !(nn > 0);
+                ok = std::isfinite(nn) && nn > 0;
               }
-              double vol = 0;
-              if (!bad) {
-                vol = particle_volume(pa, p);
-                bad = !std::isfinite(vol) || !(vol >= std::numeric_limits<double>::min()) ||
-                      !(c.cwiseAbs().maxCoeff() + rad < 1e300);
-              }
-              if (bad) {
+              if (!ok) {
                 acc.first_bad = std::min(acc.first_bad, p);
                 continue;
               }
@@ -393,13 +403,20 @@ struct Engine::Impl {
     weights_kept = opts.weights;
     cell_weights.valid = false;
     rep.dropped_volume = acc.dropped();
-    rep.deposited_volume = sum_cells(acc.field(), acc.touched());
-    rep.clipped_volume = clipped_volume(acc.field(), acc.touched());
+    if (opts.smoothing_length > 0) {
+      if (!faces) faces = std::make_unique<detail::FaceGraph>(detail::face_graph(mesh));
+      const int iterations = detail::smooth_solid(*faces, mesh, opts.smoothing_length, acc.field(), smoothed);
+      log->debug("smoothing_length={}: {} iterations", opts.smoothing_length, iterations);
+    } else {
+      smoothed.clear();
+    }
+    rep.deposited_volume = sum_cells(field(), touched());
+    rep.clipped_volume = clipped_volume(field(), touched());
     count_overfull();
     if (opts.incremental) rep.outside_particles = acc.outside_particles();
     have_field = true;
     report = rep;
-    std::copy(acc.field().begin(), acc.field().end(), out.begin());
+    std::copy(field().begin(), field().end(), out.begin());
     log->info("computed {} particles with {} on a {}: {} moved, {} sub-elements, {} on the fast path, {} outside",
               pa.n, to_string(opts.method), mesh.kind_name(), acc.moved(), rep.sub_elements, rep.fast_path_particles,
               rep.outside_particles);
@@ -594,6 +611,11 @@ struct Engine::Impl {
     return rep;
   }
 
+  /// The field the host sees: the accumulator's, smoothed when smoothing_length > 0.
+  const std::vector<double>& field() const { return smoothed.empty() ? acc.field() : smoothed; }
+  /// The cells that may hold solid (null: any), of field().
+  const std::vector<std::int64_t>* touched() const { return smoothed.empty() ? acc.touched() : nullptr; }
+
   /// Cells whose solid volume exceeds their volume (eps < 0) and that excess: a solver must
   /// not see them silently (a scene that does not match the mesh, cells smaller than the
   /// particles under a point method).
@@ -602,7 +624,7 @@ struct Engine::Impl {
   void count_overfull() {
     overfull_cells = 0;
     overfull_volume = 0;
-    const std::vector<double>& f = acc.field();
+    const std::vector<double>& f = field();
     auto check = [&](std::int64_t c) {
       const double excess = f[static_cast<std::size_t>(c)] - mesh.cell_volume(c);
       if (excess > 1e-12 * mesh.cell_volume(c)) {
@@ -610,7 +632,7 @@ struct Engine::Impl {
         overfull_volume += excess;
       }
     };
-    if (const auto* cells = acc.touched())
+    if (const auto* cells = touched())
       for (const std::int64_t c : *cells) check(c);
     else
       for (std::int64_t c = 0; c < mesh.cell_count(); ++c) check(c);
@@ -725,6 +747,7 @@ void Engine::configure(std::string_view options) {
                     option_value(next, "accumulation") + " cannot give bitwise reproducible sums: use accumulation=auto "
                     "or sorted with deterministic=1");
   const bool new_arena = next.threads != impl_->opts.threads;
+  if (next.periodic != impl_->mesh.periodic()) impl_->faces.reset();  // the face graph wraps with the axes
   impl_->mesh.set_periodic(next.periodic);
   impl_->opts = next;
   impl_->acc.invalidate_kept();  // deposits kept by incremental=1 may no longer hold
@@ -732,7 +755,7 @@ void Engine::configure(std::string_view options) {
   impl_->log->set_level(spdlog::level::from_str(next.log_level));
   // The report's clipped volume follows alpha_min, as vfe_void_fraction does.
   if (impl_->have_field)
-    impl_->report.clipped_volume = impl_->clipped_volume(impl_->acc.field(), impl_->acc.touched());
+    impl_->report.clipped_volume = impl_->clipped_volume(impl_->field(), impl_->touched());
 }
 
 std::string Engine::option(std::string_view key) const { return option_value(impl_->opts, key); }
@@ -787,7 +810,7 @@ void Engine::void_fraction(std::span<double> out) const {
   UseGuard guard(impl_->busy);
   check_size(out.size(), cell_count(), "output", "one per cell");
   const double alpha_min = impl_->opts.alpha_min;
-  const std::vector<double>& solid = impl_->acc.field();
+  const std::vector<double>& solid = impl_->field();
   for (std::int64_t c = 0; c < cell_count(); ++c) {
     const double eps = 1.0 - solid[static_cast<std::size_t>(c)] / impl_->mesh.cell_volume(c);
     out[c] = alpha_min > 0 && eps < alpha_min ? alpha_min : eps;
@@ -798,7 +821,7 @@ const Report& Engine::last_report() const { return impl_->report; }
 
 double Engine::last_report_value(std::string_view key) const {
   const Report& r = impl_->report;
-  const std::vector<std::int64_t>* touched = impl_->acc.touched();
+  const std::vector<std::int64_t>* touched = impl_->touched();
   const std::pair<const char*, double> facts[] = {
       {"particles", double(r.particles)},
       {"fast_path_particles", double(r.fast_path_particles)},

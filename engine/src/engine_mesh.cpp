@@ -97,8 +97,7 @@ void EngineMesh::set_periodic(unsigned mask) {
   if (cartesian_) cartesian_->set_periodic(mask);
 }
 
-Eigen::Vector3d EngineMesh::wrap(const Eigen::Vector3d& x) const {
-  if (!periodic_) return x;
+Eigen::Vector3d EngineMesh::wrap_periodic(const Eigen::Vector3d& x) const {
   if (rectilinear_) return rectilinear_wrap(*rectilinear_, periodic_, x);
   Eigen::Vector3d c = x;
   const CartesianGrid& g = *cartesian_;

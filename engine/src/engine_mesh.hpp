@@ -41,7 +41,7 @@ class EngineMesh {
   void set_periodic(unsigned mask);
   unsigned periodic() const { return periodic_; }
   /// A position moved into the mesh along its periodic axes (others unchanged).
-  Eigen::Vector3d wrap(const Eigen::Vector3d& x) const;
+  Eigen::Vector3d wrap(const Eigen::Vector3d& x) const { return periodic_ ? wrap_periodic(x) : x; }
 
   /// The concrete mesh of each kind (null for the other kinds).
   const CartesianGrid* cartesian() const { return cartesian_ ? &*cartesian_ : nullptr; }
@@ -54,6 +54,8 @@ class EngineMesh {
   std::unique_ptr<PolyMesh> polyhedra() const;
 
  private:
+  Eigen::Vector3d wrap_periodic(const Eigen::Vector3d& x) const;
+
   MeshKind kind_;
   std::int64_t cells_ = 0;
   double v_min_ = 0, v_max_ = 0;

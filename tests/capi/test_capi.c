@@ -34,6 +34,18 @@ int main(void) {
   vfe_report rep;
 
   CHECK(strlen(vfe_version()) >= 5, "version '%s'", vfe_version());
+  {
+    /* The library, the generated header and CMake's project(VERSION) tell one version. */
+    char from_macros[32];
+    snprintf(from_macros, sizeof from_macros, "%d.%d.%d", VFE_VERSION_MAJOR, VFE_VERSION_MINOR, VFE_VERSION_PATCH);
+    CHECK(strcmp(vfe_version(), from_macros) == 0, "vfe_version() '%s', macros '%s'", vfe_version(), from_macros);
+    CHECK(strcmp(vfe_version(), VFE_PROJECT_VERSION) == 0, "vfe_version() '%s', project '%s'", vfe_version(),
+          VFE_PROJECT_VERSION);
+    CHECK(vfe_version_number() == (uint32_t)(VFE_VERSION_MAJOR * 10000 + VFE_VERSION_MINOR * 100 + VFE_VERSION_PATCH),
+          "vfe_version_number() %lu", (unsigned long)vfe_version_number());
+    CHECK(vfe_version_number() == VFE_VERSION_NUMBER, "vfe_version_number() %lu, VFE_VERSION_NUMBER %lu",
+          (unsigned long)vfe_version_number(), (unsigned long)VFE_VERSION_NUMBER);
+  }
   CHECK(strcmp(vfe_status_name(VFE_ERROR_IO), "VFE_ERROR_IO") == 0, "status name");
 
   s = vfe_create_cartesian(origin, spacing, cells, &e);

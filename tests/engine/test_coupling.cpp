@@ -8,6 +8,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <memory>
 #include <numeric>
@@ -293,6 +294,37 @@ TEST(Coupling, LogCallbackReceivesTheEnginesMessages) {
   e.set_log_callback(nullptr, nullptr);
   e.compute(p.view(), out);
   EXPECT_EQ(seen.count, 1);
+}
+
+}  // namespace
+}  // namespace vfe::test
+
+namespace vfe::test {
+namespace {
+
+// smoothing_length diffuses the solid volume over the face graph: conserved to round-off,
+// never negative, flatter (a lower maximum), and nothing for a length of zero.
+TEST(Smoothing, ConservesAndFlattensOnEveryMeshKind) {
+  std::vector<std::unique_ptr<Engine>> engines;
+  engines.push_back(std::make_unique<Engine>(grid(0.001, 20, 20, 20)));
+  std::vector<double> x(21);
+  for (int i = 0; i <= 20; ++i) x[i] = 0.02 * std::pow(i / 20.0, 1.2);
+  engines.push_back(std::make_unique<Engine>(RectilinearGridSpec{{x, x, x}}));
+  engines.push_back(std::make_unique<Engine>(PolyMeshSpec{kData + "openfoam/cylinder_ogrid_coarse"}));
+  const Particles p = random_spheres(12, 300, 0.006, 0.014, 0.0003, 0.0006);
+  for (auto& e : engines) {
+    SCOPED_TRACE(e->cell_count());
+    const std::vector<double> raw = run(*e, p, "method=pmm particle_grid=40 smoothing_length=0");
+    for (const char* periodic : {"none", "xyz"}) {
+      if (std::string(periodic) == "xyz" && e->cell_count() == 1920) continue;  // a polyMesh has no periodic axes
+      const std::vector<double> smooth =
+          run(*e, p, std::string("smoothing_length=0.002 periodic=") + periodic);
+      EXPECT_NEAR(std::accumulate(smooth.begin(), smooth.end(), 0.0), p.volume(), 1e-12 * p.volume());
+      EXPECT_GE(*std::min_element(smooth.begin(), smooth.end()), -1e-15 * p.volume());
+      EXPECT_LT(*std::max_element(smooth.begin(), smooth.end()), 0.8 * *std::max_element(raw.begin(), raw.end()));
+    }
+    e->configure("periodic=none");
+  }
 }
 
 }  // namespace

@@ -1,4 +1,4 @@
-/* A host program built against an installed vfe: cc -std=c99 host.c -I P/include -L P/lib -lvfe */
+/* A host program built against an installed vfe: cc -std=c99 host.c -I P/include -L P/lib -lvfe -Wl,-rpath,P/lib */
 #include <vfe/vfe.h>
 
 #include <stdio.h>

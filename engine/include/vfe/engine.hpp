@@ -73,7 +73,7 @@ struct ParticleView {
 
 using Report = vfe_report;
 
-class Engine {
+class VFE_API Engine {
  public:
   /// Builds an engine on a Cartesian grid; throws Error on invalid geometry.
   explicit Engine(const CartesianGridSpec& grid);

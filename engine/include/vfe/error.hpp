@@ -9,7 +9,7 @@
 
 namespace vfe {
 
-class Error : public std::runtime_error {
+class VFE_API Error : public std::runtime_error {
  public:
   Error(vfe_status status, const std::string& message) : std::runtime_error(message), status_(status) {}
   vfe_status status() const noexcept { return status_; }

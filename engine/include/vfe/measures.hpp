@@ -1,6 +1,8 @@
 // Accuracy measures of docs/design.md section 8, shared by tests, apps and reports.
 #pragma once
 
+#include <vfe/vfe.h>
+
 #include <cstdint>
 #include <span>
 
@@ -16,7 +18,7 @@ struct AccuracyMeasures {
 
 /// Compares a solid-volume field with the exact one. cell_volume gives V_c per cell;
 /// particle_volume is the sum of the particles' volumes (the conservation target).
-AccuracyMeasures compare_fields(std::span<const double> solid, std::span<const double> solid_exact,
-                                std::span<const double> cell_volume, double particle_volume);
+VFE_API AccuracyMeasures compare_fields(std::span<const double> solid, std::span<const double> solid_exact,
+                                        std::span<const double> cell_volume, double particle_volume);
 
 }  // namespace vfe

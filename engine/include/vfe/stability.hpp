@@ -3,6 +3,8 @@
 // fraction of a method is compared with the exact one (shapes: a fine pmm).
 #pragma once
 
+#include <vfe/vfe.h>
+
 #include <cstdint>
 #include <numbers>
 #include <string>
@@ -69,11 +71,11 @@ struct StabilityReport {
 };
 
 /// Seed of trajectory i (also its template orientation: the engine's option seed=).
-std::uint64_t trajectory_seed(std::uint64_t seed, int trajectory);
+VFE_API std::uint64_t trajectory_seed(std::uint64_t seed, int trajectory);
 
 /// Runs the stress test. Deterministic for given options (any thread count). Throws
 /// vfe::Error (invalid argument) for bad options, naming them.
-StabilityReport stability_test(const StabilityOptions& options);
+VFE_API StabilityReport stability_test(const StabilityOptions& options);
 
 /// The jump of one sub-element crossing a face: pi / (6 n chi^3).
 inline double sub_element_jump(double n, double chi) {
@@ -89,11 +91,11 @@ struct JumpModel {
 
 /// Fitted constants for a template family with orientation=random ("spherical" or
 /// "fibonacci"); throws Error (invalid argument) for another name.
-JumpModel fitted_jump_model(std::string_view template_family);
+VFE_API JumpModel fitted_jump_model(std::string_view template_family);
 
 /// Smallest n with J <= jump_criterion under the model (real-valued, >= 1):
 /// n_min = ((C a + sqrt(C^2 a^2 + 4 C b chi^3)) / (2 chi^3))^2, C = pi / (6 jump_criterion).
-double n_min_model(double chi, const JumpModel& model, double jump_criterion = kDefaultJumpCriterion);
+VFE_API double n_min_model(double chi, const JumpModel& model, double jump_criterion = kDefaultJumpCriterion);
 
 /// Flux form: the jump the host's flow allows, U_s dt_f / dx (psi = deps dx / (U_s dt_f) <= 1).
 inline double flux_jump_criterion(double superficial_velocity, double fluid_dt, double cell_size) {
@@ -102,7 +104,7 @@ inline double flux_jump_criterion(double superficial_velocity, double fluid_dt, 
 
 /// particle_grid=auto: 5 * ceil(n_min_model(chi)) for the family's fitted model under the
 /// given criterion (the engine then uses the nearest template size it can make).
-std::int64_t auto_particle_grid(double chi, std::string_view template_family,
+VFE_API std::int64_t auto_particle_grid(double chi, std::string_view template_family,
                                 double jump_criterion = kDefaultJumpCriterion);
 
 }  // namespace vfe

@@ -10,12 +10,16 @@
 
 #include <stdint.h>
 
-#define VFE_VERSION_MAJOR 0
-#define VFE_VERSION_MINOR 1
-#define VFE_VERSION_PATCH 0
+#include <vfe/version.h>
 
+/* libvfe is built with hidden symbols; VFE_API marks what it exports. VFE_BUILDING_LIBRARY
+ * is defined only while compiling the library itself. */
 #if defined(_WIN32)
+#if defined(VFE_BUILDING_LIBRARY)
 #define VFE_API __declspec(dllexport)
+#else
+#define VFE_API __declspec(dllimport)
+#endif
 #else
 #define VFE_API __attribute__((visibility("default")))
 #endif
@@ -38,6 +42,9 @@ typedef enum vfe_status {
 
 /** Version string "MAJOR.MINOR.PATCH" of the loaded library. */
 VFE_API const char* vfe_version(void);
+/** Version of the loaded library as MAJOR*10000 + MINOR*100 + PATCH (VFE_VERSION_NUMBER
+ *  of the headers it was built from). */
+VFE_API uint32_t vfe_version_number(void);
 
 /** Short name of a status ("VFE_OK", "VFE_ERROR_IO", ...); never NULL. */
 VFE_API const char* vfe_status_name(vfe_status s);

@@ -6,14 +6,20 @@ namespace vfe::detail {
 
 void direct_particle(const Context& ctx, Scratch& s, const Particle& p) {
   ++s.sub_elements;
-  const Eigen::Vector3d at = p.shaped ? Eigen::Vector3d(p.centre + p.radius * (particle_rotation(ctx.opts, p) * p.centroid))
-                                      : p.centre;
-  const std::int64_t cell = ctx.grid.locate(at);
+  if (p.shaped) {
+    const Eigen::Vector3d at = p.centre + p.radius * (particle_rotation(ctx.opts, p) * p.centroid);
+    bool flagged = false;
+    if (const std::int64_t cell = ctx.grid.locate(at); cell >= 0)
+      s.add(cell, p.volume);
+    else
+      outside(ctx, s, p, p.volume, ctx.grid.nearest(at), flagged, p.outside);
+    return;
+  }
   bool flagged = false;
-  if (cell >= 0)
+  if (const std::int64_t cell = ctx.grid.locate(p.centre); cell >= 0)
     s.add(cell, p.volume);
   else
-    outside(ctx, s, p, p.volume, ctx.grid.nearest(at), flagged, p.outside);
+    outside(ctx, s, p, p.volume, ctx.grid.nearest(p.centre), flagged, p.outside);
 }
 
 }  // namespace vfe::detail
