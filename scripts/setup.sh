@@ -9,7 +9,8 @@ preset="${1:-release}"
 
 packages=(g++ cmake ninja-build pkg-config libtbb-dev libeigen3-dev libnanoflann-dev libspdlog-dev
           libyaml-cpp-dev libcli11-dev zlib1g-dev libgtest-dev libbenchmark-dev python3-matplotlib ccache
-          pybind11-dev python3-pybind11 python3-numpy python3-pytest)
+          pybind11-dev python3-pybind11 python3-numpy python3-pytest
+          libopenmpi-dev openmpi-bin)  # MPI: libvfe_mpi and its tests
 if [ "$preset" = tsan ]; then packages+=(dpkg-dev xz-utils); fi
 # LAMMPS for examples/lammps_pour.py, where the distribution has it (liblammps-dev gives the
 # liblammps.so that the Python module loads).

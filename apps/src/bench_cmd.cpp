@@ -1,5 +1,8 @@
 #include "bench_cmd.hpp"
+#include "engine_methods.hpp"
+#include "random.hpp"
 #include "report.hpp"
+#include "timing.hpp"
 
 #include <vfe/engine.hpp>
 #include <vfe/kernels/particle_template.hpp>
@@ -38,7 +41,6 @@ namespace vfe::apps {
 namespace {
 
 namespace fs = std::filesystem;
-using Clock = std::chrono::steady_clock;
 using kernels::ParticleTemplate;
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
@@ -48,48 +50,6 @@ constexpr double kStreamFraction = 0.05;
 constexpr double kPolySpread = 0.3;
 /// More cells than this is a mistake (chi far too small for the scene), not a benchmark.
 constexpr double kMaxCells = 2e9;
-
-/// splitmix64: the same stream on every platform (the std distributions are not).
-class Rng {
- public:
-  explicit Rng(std::uint64_t seed) : state_(seed) {}
-  std::uint64_t next() {
-    std::uint64_t z = (state_ += 0x9e3779b97f4a7c15ull);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-    return z ^ (z >> 31);
-  }
-  double uniform() { return static_cast<double>(next() >> 11) * 0x1p-53; }
-  /// Uniform in [0, n); the modulo bias is below 2^-40 for the counts used here.
-  std::uint64_t below(std::uint64_t n) { return next() % n; }
-
- private:
-  std::uint64_t state_;
-};
-
-double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  const std::size_t m = v.size() / 2;
-  return v.size() % 2 ? v[m] : 0.5 * (v[m - 1] + v[m]);
-}
-
-struct Timing {
-  double median_ms = 0, min_ms = 0;
-};
-
-/// `repeats` timed calls of f (the caller has warmed it up).
-template <class F>
-Timing time_calls(int repeats, F&& f) {
-  std::vector<double> ms;
-  for (int i = 0; i < repeats; ++i) {
-    const auto t0 = Clock::now();
-    f();
-    ms.push_back(ms_since(t0));
-  }
-  return {median(ms), *std::min_element(ms.begin(), ms.end())};
-}
 
 // --- resident memory -----------------------------------------------------------------
 
@@ -465,7 +425,7 @@ BenchScene make_bench_scene(const std::string& scene, const std::string& dispers
                             std::uint64_t seed) {
   check_scene_kind(scene, dispersity);
   if (n < 1) bad_argument("--particles: " + std::to_string(n) + " particles; expected a count >= 1");
-  Rng rng(seed);
+  SplitMix64 rng(seed);
   BenchScene s;
   s.name = scene;
   s.dispersity = dispersity;
@@ -544,7 +504,10 @@ BenchOutcome run_bench(const BenchCommand& c) {
     const unsigned hc = std::thread::hardware_concurrency();
     threads.push_back(t > 0 ? t : (hc ? static_cast<int>(hc) : 1));
   }
-  if (c.methods.empty()) bad_argument("--method: no value; give methods such as direct,pmm,exact");
+  if (c.methods.empty()) bad_argument("--method: no value; give methods such as direct,pmm,exact (or all)");
+  // "all": every method the engine has, in its order.
+  std::vector<std::string> methods = c.methods;
+  if (methods == std::vector<std::string>{"all"}) methods = engine_method_names();
   if (c.repeats < 1) bad_argument("--repeats: bad value '" + std::to_string(c.repeats) + "'; expected a count >= 1");
   check_free_options(c.options);
 
@@ -552,7 +515,7 @@ BenchOutcome run_bench(const BenchCommand& c) {
   vfe::Engine probe(vfe::CartesianGridSpec{});
   configure_or_throw(probe, c.options, "--options");
   configure_or_throw(probe, "particle_grid=" + c.particle_grid, "--particle-grid");
-  for (const std::string& m : c.methods) configure_or_throw(probe, "method=" + m, "--method");
+  for (const std::string& m : methods) configure_or_throw(probe, "method=" + m, "--method");
   probe.configure("method=pmm");  // the limits use pmm's template sizes
 
   std::error_code ec;
@@ -564,7 +527,7 @@ BenchOutcome run_bench(const BenchCommand& c) {
   BenchOutcome out;
   out.output = c.output;
   if (c.table) print_header(*c.table);
-  const std::size_t total_rows = counts.size() * c.chi.size() * threads.size() * c.methods.size();
+  const std::size_t total_rows = counts.size() * c.chi.size() * threads.size() * methods.size();
   for (const std::int64_t n : counts) {
     const auto t_scene = Clock::now();
     const BenchScene scene = make_bench_scene(c.scene, c.dispersity, n, c.seed);
@@ -619,7 +582,7 @@ BenchOutcome run_bench(const BenchCommand& c) {
           }
         }
 
-        for (const std::string& method : c.methods) {
+        for (const std::string& method : methods) {
           BenchRow row;
           return_free_memory();
           const std::int64_t before_engine = resident_bytes();

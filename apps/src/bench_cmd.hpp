@@ -24,7 +24,7 @@ struct BenchCommand {
   std::vector<double> particles{1e4, 1e5};
   std::vector<double> chi{2.0};    ///< cell size / mean diameter
   std::vector<int> threads{1, 2};  ///< 0 = all
-  std::vector<std::string> methods{"direct", "pmm", "exact"};
+  std::vector<std::string> methods{"direct", "pmm", "exact"};  ///< engine methods; {"all"} = every engine method
   std::string particle_grid = "auto";
   std::string options;             ///< more engine options, "key=value ..."
   int repeats = 3;                 ///< timed computes after one warm-up (the median is reported)

@@ -1,5 +1,7 @@
 #include "config.hpp"
 
+#include "engine_methods.hpp"
+
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
@@ -90,6 +92,13 @@ std::array<std::int64_t, 3> triple_int(const Ctx& ctx, const YAML::Node& n, cons
   return {integer(ctx, n[0], what), integer(ctx, n[1], what), integer(ctx, n[2], what)};
 }
 
+/// The engine's method names, "direct, pmm, ...".
+std::string method_list() {
+  std::string list;
+  for (const std::string& name : engine_method_names()) list.append(list.empty() ? "" : ", ").append(name);
+  return list;
+}
+
 bool is_identifier_like(const std::string& s) {
   if (s.empty()) return false;
   return std::all_of(s.begin(), s.end(), [](char c) {
@@ -145,8 +154,7 @@ MethodSpec method_entry(const Ctx& ctx, const YAML::Node& n, const std::string& 
                         "label: NAME}");
   }
   if (!is_identifier_like(m.method))
-    ctx.fail(n, where + ": '" + m.method + "' is not a method name; use one of direct, pmm, exact, "
-                        "divided, gaussian, porous_cube, big_particle, trilinear");
+    ctx.fail(n, where + ": '" + m.method + "' is not a method name; use one of " + method_list());
   if (m.options.find("method=") != std::string::npos)
     ctx.fail(n, where + ": options must not set method= (use the 'method' key)");
   if (m.label.empty()) m.label = default_label(m.method, m.options);

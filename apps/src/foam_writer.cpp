@@ -1,5 +1,7 @@
 #include "foam_writer.hpp"
 
+#include "text_format.hpp"
+
 #include <zlib.h>
 
 #include <cctype>
@@ -58,16 +60,6 @@ std::vector<std::string> tokenize(const std::string& s) {
     }
   }
   return out;
-}
-
-/// Shortest text that reads back to the same double.
-std::string num(double v) {
-  char buf[64];
-  for (int p = 6; p <= 17; ++p) {
-    std::snprintf(buf, sizeof buf, "%.*g", p, v);
-    if (std::strtod(buf, nullptr) == v) break;
-  }
-  return buf;
 }
 
 }  // namespace
@@ -140,7 +132,7 @@ void write_foam_scalar_field(const fs::path& file, const std::string& object, co
     << "dimensions      [0 0 0 0 0 0 0];\n\n"
     << "internalField   nonuniform List<scalar>\n"
     << values.size() << "\n(\n";
-  for (double v : values) o << (std::isfinite(v) ? num(v) : std::string("0")) << '\n';
+  for (double v : values) o << (std::isfinite(v) ? round_trip(v) : std::string("0")) << '\n';
   o << ")\n;\n\n"
     << "boundaryField\n{\n"
     << "    \".*\"\n    {\n        type            zeroGradient;\n    }\n";

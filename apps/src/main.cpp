@@ -4,7 +4,8 @@
 //                 [--step S] [--trajectories N] [--seed N] [--cells C] [--sweep]
 //                 [--superficial-velocity U --fluid-dt DT [--diameter D]] [--output DIR]
 //                 [--shape SPEC [--reference-grid N]]
-//   vfe study CONFIG.yaml [--output DIR] [--threads N] [--repeats N] [--chi LIST] [--base FAMILY] [--quiet]
+//   vfe study CONFIG.yaml [--output DIR] [--threads N] [--repeats N] [--chi LIST] [--base FAMILY]
+//             [--families LIST] [--quiet]
 //   vfe bench [--scene bed|stream] [--dispersity mono|poly] [--particles LIST] [--chi LIST] [--threads LIST]
 //             [--method LIST] [--particle-grid auto|N] [--options "key=value ..."] [--repeats N] [--seed N]
 //             [--no-limits] [--output DIR] [--quiet]
@@ -124,6 +125,10 @@ int main(int argc, char** argv) {
       ->delimiter(',')
       ->check(CLI::PositiveNumber);
   study->add_option("--base", study_base, "Family compared with every other point")->capture_default_str();
+  std::vector<std::string> study_families;
+  study->add_option("--families", study_families,
+                    "Run only these method families (labels of the config's methods), a list")
+      ->delimiter(',');
   study->add_flag("-q,--quiet", study_quiet, "Print only the tables, warnings and errors");
 
   vfe::apps::BenchCommand bench_cmd;
@@ -141,7 +146,7 @@ int main(int argc, char** argv) {
   bench->add_option("--chi", bench_cmd.chi, "Cell size / mean diameter, a list (default 2; e.g. 0.5,1,2,4)")
       ->delimiter(',');
   bench->add_option("-t,--threads", bench_cmd.threads, "Thread counts, a list (default 1,2; 0 = all)")->delimiter(',');
-  bench->add_option("--method", bench_cmd.methods, "Engine methods, a list (default direct,pmm,exact)")->delimiter(',');
+  bench->add_option("--method", bench_cmd.methods, "Engine methods, a list (default direct,pmm,exact), or all")->delimiter(',');
   bench->add_option("--particle-grid", bench_cmd.particle_grid, "pmm's particle_grid: auto or a count")
       ->capture_default_str();
   bench->add_option("--options", bench_cmd.options, "More engine options, \"key=value ...\" (e.g. orientation=none)");
@@ -179,6 +184,7 @@ int main(int argc, char** argv) {
       if (study_repeats >= 1) opt.repeats = study_repeats;
       if (!study_chi.empty()) opt.chi = study_chi;
       opt.base = study_base;
+      opt.families = study_families;
       opt.logger = vfe::apps::make_app_logger(study_quiet);
       opt.table = &std::cout;
       vfe::apps::run_study(cfg, opt);

@@ -1,6 +1,8 @@
 // Reports of `vfe run`: a text table per mesh, results.json and results.csv.
 #pragma once
 
+#include "text_format.hpp"
+
 #include <vfe/measures.hpp>
 
 #include <array>
@@ -71,10 +73,5 @@ void print_table(std::ostream& out, const std::string& title, const std::vector<
 
 void write_json(const std::filesystem::path& file, const RunInfo& info, const std::vector<ResultRow>& rows);
 void write_csv(const std::filesystem::path& file, const RunInfo& info, const std::vector<ResultRow>& rows);
-
-/// s as one CSV field: quoted (quotes doubled) when it holds a comma, quote or newline.
-std::string csv_field(const std::string& s);
-/// Writes text to file; throws std::runtime_error naming the file when it cannot.
-void write_text_file(const std::filesystem::path& file, const std::string& text);
 
 }  // namespace vfe::apps

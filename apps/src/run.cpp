@@ -2,7 +2,9 @@
 
 #include "dump_reader.hpp"
 #include "foam_writer.hpp"
+#include "scene_mesh.hpp"
 #include "scene_particles.hpp"
+#include "timing.hpp"
 #include "vtk_writer.hpp"
 
 #include <vfe/engine.hpp>
@@ -25,33 +27,10 @@ namespace vfe::apps {
 namespace {
 
 namespace fs = std::filesystem;
-using Clock = std::chrono::steady_clock;
-
-double ms_since(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
-
-double median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  const std::size_t m = v.size() / 2;
-  return v.size() % 2 ? v[m] : 0.5 * (v[m - 1] + v[m]);
-}
-
 std::string g3(double v) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.3g", v);
   return buf;
-}
-
-/// Runs f; an engine Error gets the mesh and method it happened in.
-template <class F>
-void with_context(const std::string& where, F&& f) {
-  try {
-    f();
-  } catch (const vfe::Error& e) {
-    throw vfe::Error(e.status(), where + ": " + e.what());
-  }
 }
 
 int resolve_threads(const std::string& value) {
@@ -163,11 +142,7 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
   RunResult result;
   result.output = out_dir;
 
-  std::vector<MeshSpec> meshes = cfg.meshes;
-  if (!cfg.chi.empty() && !(mean_d > 0))
-    throw ConfigError(source + ": chi: [...] needs particles to size the cells (the frame has none); list meshes "
-                               "instead");
-  for (double chi : cfg.chi) meshes.push_back(chi_mesh(chi, mean_d));
+  const std::vector<MeshSpec> meshes = scene_meshes(cfg, cfg.chi, mean_d);
 
   // The field the CFD solver reads as plain `voidfraction`: the method run with the engine's
   // default options (e.g. plain pmm), else the first method.
@@ -188,35 +163,23 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
     const bool poly = mesh.type == "polymesh";       // an OpenFOAM case
     const bool rectilinear = mesh.type == "rectilinear";
     const std::string mesh_where = "mesh '" + mesh.name + "'";
-    vfe::CartesianGridSpec grid;
-    std::unique_ptr<vfe::Engine> engine;
-    if (poly) {
-      t0 = Clock::now();
-      with_context(mesh_where, [&] { engine = std::make_unique<vfe::Engine>(vfe::PolyMeshSpec{mesh.path.string()}); });
-      log->info("mesh '{}': read {} in {:.0f} ms", mesh.name, mesh.path.string(), ms_since(t0));
-    } else if (rectilinear) {
-      with_context(mesh_where, [&] { engine = std::make_unique<vfe::Engine>(vfe::RectilinearGridSpec{mesh.nodes}); });
-      for (int d = 0; d < 3; ++d) grid.cells[d] = static_cast<std::int64_t>(mesh.nodes[d].size()) - 1;
-    } else {
-      std::string note;
-      grid = resolve_grid(mesh, &frame.box, source, &note);
-      // A chi mesh keeps its spacing exactly, so extending past the box is expected there.
-      if (!note.empty()) {
-        if (mesh_index < cfg.meshes.size())
-          log->warn("mesh '{}': {}", mesh.name, note);
-        else
-          log->info("mesh '{}': {}", mesh.name, note);
-      }
-      with_context(mesh_where, [&] { engine = std::make_unique<vfe::Engine>(grid); });
+    t0 = Clock::now();
+    SceneMesh built = build_scene_mesh(mesh, &frame.box, source);
+    if (poly) log->info("mesh '{}': read {} in {:.0f} ms", mesh.name, mesh.path.string(), ms_since(t0));
+    // A chi mesh keeps its spacing exactly, so extending past the box is expected there.
+    if (!built.note.empty()) {
+      if (mesh_index < cfg.meshes.size())
+        log->warn("mesh '{}': {}", mesh.name, built.note);
+      else
+        log->info("mesh '{}': {}", mesh.name, built.note);
     }
+    const vfe::CartesianGridSpec& grid = built.grid;
+    const std::unique_ptr<vfe::Engine>& engine = built.engine;
     register_shapes(cfg, *engine);
-    const auto ncells = static_cast<std::size_t>(engine->cell_count());
-    std::vector<double> cell_volume(ncells), ref(ncells), solid(ncells), eps(ncells);
-    engine->cell_volumes(cell_volume);
-    double mean_cell_volume = 0;
-    for (double v : cell_volume) mean_cell_volume += v;
-    mean_cell_volume /= static_cast<double>(std::max<std::size_t>(ncells, 1));
-    const double cell_size = std::cbrt(mean_cell_volume);
+    const std::vector<double>& cell_volume = built.cell_volumes;
+    const std::size_t ncells = cell_volume.size();
+    std::vector<double> ref(ncells), solid(ncells), eps(ncells);
+    const double cell_size = built.cube_root_of_mean_volume();
     const double chi = mean_d > 0 ? cell_size / mean_d : 0.0;
     if (poly || rectilinear)
       log->info("mesh '{}': {} of {} cells, mean cell size {} (mean chi = {:.2f})", mesh.name,
@@ -244,7 +207,7 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
       row.label = m.label;
       row.method = m.method;
       row.options = opts;
-      row.grid = poly ? std::array<std::int64_t, 3>{0, 0, 0} : grid.cells;  // rectilinear: cells per axis
+      row.grid = built.cells_per_axis;  // {0, 0, 0} on a polyMesh
       row.cells = static_cast<std::int64_t>(ncells);
       row.cell_size = cell_size;
       row.chi = chi;
@@ -358,7 +321,7 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
         mesh_rows.push_back(std::move(row));
         continue;
       }
-      with_context(mesh_where + ", method '" + m.label + "'", [&] {
+      with_mesh_context(mesh, "method '" + m.label + "'", [&] {
         std::vector<double> times;
         times.reserve(static_cast<std::size_t>(repeats));
         for (int r = 0; r < repeats; ++r) {

@@ -1,6 +1,7 @@
 #include "scene_particles.hpp"
 
 #include "dump_reader.hpp"
+#include "random.hpp"
 
 #include <cmath>
 #include <numbers>
@@ -8,15 +9,6 @@
 namespace vfe::apps {
 
 namespace {
-
-std::uint64_t splitmix(std::uint64_t& state) {
-  std::uint64_t z = (state += 0x9E3779B97F4A7C15ull);
-  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-  return z ^ (z >> 31);
-}
-
-double uniform01(std::uint64_t& state) { return double(splitmix(state) >> 11) * 0x1.0p-53; }
 
 std::string where_shape(const SceneConfig& c, const ShapeEntry& e) {
   return c.source.string() + (e.line > 0 ? ":" + std::to_string(e.line) : std::string()) + ": shapes: '" + e.name + "'";
@@ -73,21 +65,14 @@ void generate_particles(const GenerateSpec& g, std::vector<double>& centres, std
   const auto n = static_cast<std::size_t>(g.count);
   centres.resize(3 * n);
   orientations.clear();
-  std::uint64_t state = g.seed * 0xD1B54A32D192ED03ull + 0x5851F42D4C957F2Dull;
+  SplitMix64 rng(g.seed * 0xD1B54A32D192ED03ull + 0x5851F42D4C957F2Dull);
   for (std::size_t i = 0; i < n; ++i)
-    for (int d = 0; d < 3; ++d)
-      centres[3 * i + d] = g.box[2 * d] + (g.box[2 * d + 1] - g.box[2 * d]) * uniform01(state);
+    for (int d = 0; d < 3; ++d) centres[3 * i + d] = g.box[2 * d] + (g.box[2 * d + 1] - g.box[2 * d]) * rng.uniform();
   if (g.orientations != "random") return;
   orientations.resize(4 * n);
   for (std::size_t i = 0; i < n; ++i) {
-    // Shoemake: uniform over the rotations.
-    const double u1 = uniform01(state), u2 = uniform01(state), u3 = uniform01(state);
-    const double a = std::sqrt(1.0 - u1), b = std::sqrt(u1);
-    const double t2 = 2.0 * std::numbers::pi * u2, t3 = 2.0 * std::numbers::pi * u3;
-    orientations[4 * i + 0] = b * std::cos(t3);
-    orientations[4 * i + 1] = a * std::sin(t2);
-    orientations[4 * i + 2] = a * std::cos(t2);
-    orientations[4 * i + 3] = b * std::sin(t3);
+    const std::array<double, 4> q = random_unit_quaternion(rng);
+    for (int k = 0; k < 4; ++k) orientations[4 * i + k] = q[k];
   }
 }
 

@@ -1,5 +1,7 @@
 #include "stability_cmd.hpp"
 
+#include "text_format.hpp"
+
 #include <vfe/engine.hpp>
 #include <vfe/vfe.h>
 
@@ -21,6 +23,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
+/// Nine significant digits: the stability files' own precision.
 std::string num(double v) {
   if (std::isnan(v)) return "nan";
   if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
@@ -30,33 +33,6 @@ std::string num(double v) {
 }
 
 std::string jnum(double v) { return std::isfinite(v) ? num(v) : "null"; }
-
-std::string fmt(const char* f, double v) {
-  char buf[40];
-  std::snprintf(buf, sizeof buf, f, v);
-  return buf;
-}
-
-std::string json_string(const std::string& s) {
-  std::string o = "\"";
-  for (char c : s) {
-    if (c == '"' || c == '\\') {
-      o += '\\';
-      o += c;
-    } else if (static_cast<unsigned char>(c) < 0x20) {
-      char buf[8];
-      std::snprintf(buf, sizeof buf, "\\u%04x", c);
-      o += buf;
-    } else {
-      o += c;
-    }
-  }
-  return o + "\"";
-}
-
-void check_stream(const std::ofstream& out, const fs::path& file) {
-  if (!out) throw std::runtime_error("cannot write " + file.string() + "; check the folder exists and is writable");
-}
 
 /// Engine options of a (template, orientation) on top of the command's own.
 std::string family_options(const StabilityCommand& c, const std::string& tmpl, const std::string& orient) {
@@ -126,7 +102,7 @@ std::string reference_name(const StabilityCommand& c) {
 
 void write_csv(const fs::path& file, const StabilityCommand& c, const std::vector<StabilityRow>& rows) {
   std::ofstream out(file);
-  check_stream(out, file);
+  check_written(out, file);
   out << "method,template,orientation,chi,particle_grid,n_min_used,n,trajectories,step,cells,steps,seed,"
          "jump_criterion,J,J_mean,J_sub_elements,max_jump,max_jump_exact,stable,unstable_trajectories,"
          "worst_trajectory,flux_criterion,psi_max,psi_J,flux_stable,shape,reference\n";
@@ -143,12 +119,12 @@ void write_csv(const fs::path& file, const StabilityCommand& c, const std::vecto
         << ',' << num(r.psi_excess) << ',' << (flux > 0 ? (r.flux_stable ? "1" : "0") : "") << ','
         << (c.shape.empty() ? "sphere" : "\"" + c.shape + "\"") << ',' << reference_name(c) << '\n';
   }
-  check_stream(out, file);
+  check_written(out, file);
 }
 
 void write_n_min_csv(const fs::path& file, const StabilityCommand& c, const std::vector<NMinRow>& rows) {
   std::ofstream out(file);
-  check_stream(out, file);
+  check_written(out, file);
   out << "method,template,orientation,chi,n_min,J_at_n_min,n_min_flux,n_tested_max,jump_criterion,"
          "flux_criterion,trajectories,step\n";
   for (const auto& r : rows) {
@@ -157,12 +133,12 @@ void write_n_min_csv(const fs::path& file, const StabilityCommand& c, const std:
         << ',' << num(r.excess_at_n_min) << ',' << r.n_min_flux << ',' << r.n_tested_max << ','
         << num(c.jump_criterion) << ',' << num(flux) << ',' << c.trajectories << ',' << num(c.step) << '\n';
   }
-  check_stream(out, file);
+  check_written(out, file);
 }
 
 void write_json(const fs::path& file, const StabilityCommand& c, const StabilityOutcome& o) {
   std::ofstream out(file);
-  check_stream(out, file);
+  check_written(out, file);
   out << "{\n  \"version\": " << json_string(vfe_version()) << ",\n";
   out << "  \"method\": " << json_string(c.method) << ",\n";
   out << "  \"options\": " << json_string(c.options) << ",\n";
@@ -204,7 +180,7 @@ void write_json(const fs::path& file, const StabilityCommand& c, const Stability
     out << "\n  ]";
   }
   out << "\n}\n";
-  check_stream(out, file);
+  check_written(out, file);
 }
 
 }  // namespace
@@ -313,7 +289,7 @@ StabilityOutcome run_stability(const StabilityCommand& c) {
   }
 
   if (c.table && c.sweep && !outcome.n_min.empty()) {
-    *c.table << "\nn_min (J <= " << fmt("%.5g", c.jump_criterion) << (flux ? "; flux: psi_J <= 1" : "")
+    *c.table << "\nn_min (J <= " << printf_number("%.5g", c.jump_criterion) << (flux ? "; flux: psi_J <= 1" : "")
              << ", " << c.trajectories << " trajectories)\n";
     char line[160];
     std::snprintf(line, sizeof line, "%-10s %-11s %6s %7s %11s %9s %9s", "template", "orientation", "chi", "n_min",

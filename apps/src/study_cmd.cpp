@@ -4,6 +4,9 @@
 #include "scene_particles.hpp"
 #include "report.hpp"
 #include "run.hpp"
+#include "scene_mesh.hpp"
+#include "text_format.hpp"
+#include "timing.hpp"
 
 #include <vfe/engine.hpp>
 
@@ -24,72 +27,12 @@ namespace vfe::apps {
 namespace {
 
 namespace fs = std::filesystem;
-using Clock = std::chrono::steady_clock;
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 /// Errors below this count as 0 (the reference against itself is round-off).
 constexpr double kZeroError = 1e-12;
 
-double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
-
-double median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  const std::size_t m = v.size() / 2;
-  return v.size() % 2 ? v[m] : 0.5 * (v[m - 1] + v[m]);
-}
-
 double error_of(const StudyPoint& p) { return p.accuracy.l1 < kZeroError ? 0.0 : p.accuracy.l1; }
-
-std::string fmt(const char* f, double v) {
-  if (std::isnan(v)) return "-";
-  char buf[64];
-  std::snprintf(buf, sizeof buf, f, v);
-  return buf;
-}
-
-/// Shortest text that reads back to the same double; NaN as `nan_text`.
-std::string num(double v, const char* nan_text) {
-  if (!std::isfinite(v)) return nan_text;
-  char buf[64];
-  for (int p = 6; p <= 17; ++p) {
-    std::snprintf(buf, sizeof buf, "%.*g", p, v);
-    if (std::strtod(buf, nullptr) == v) break;
-  }
-  return buf;
-}
-
-std::string quoted(const std::string& s) {
-  std::string o = "\"";
-  for (char c : s) {
-    if (c == '"' || c == '\\') o += '\\';
-    o += c;
-  }
-  return o + "\"";
-}
-
-/// Prints rows of cells as aligned columns (first column left-aligned).
-void print_columns(std::ostream& out, const std::vector<std::vector<std::string>>& rows) {
-  if (rows.empty()) return;
-  std::vector<std::size_t> w(rows[0].size(), 0);
-  for (const auto& r : rows)
-    for (std::size_t c = 0; c < r.size(); ++c) w[c] = std::max(w[c], r[c].size());
-  for (std::size_t i = 0; i < rows.size(); ++i) {
-    std::string line;
-    for (std::size_t c = 0; c < rows[i].size(); ++c) {
-      const std::string pad(w[c] - rows[i][c].size(), ' ');
-      if (c) line += "  ";
-      line += c < 2 ? rows[i][c] + pad : pad + rows[i][c];
-    }
-    while (!line.empty() && line.back() == ' ') line.pop_back();
-    out << line << '\n';
-    if (i == 0) {
-      std::size_t total = 2 * (w.size() - 1);
-      for (auto x : w) total += x;
-      out << std::string(total, '-') << '\n';
-    }
-  }
-}
 
 struct Job {
   MethodSpec spec;      ///< the family entry
@@ -153,9 +96,10 @@ double front_error_at_time(const Front& f, double t, std::string* note) {
 
 void mark_pareto(std::vector<StudyPoint>& points) {
   for (auto& p : points) {
-    p.pareto = true;
+    p.pareto = !p.skipped;
+    if (p.skipped) continue;
     for (const auto& q : points) {
-      if (&q == &p || q.mesh != p.mesh) continue;
+      if (&q == &p || q.mesh != p.mesh || q.skipped) continue;
       const double tp = p.time_median_ms, tq = q.time_median_ms, ep = error_of(p), eq = error_of(q);
       if (tq <= tp && eq <= ep && (tq < tp || eq < ep)) {
         p.pareto = false;
@@ -175,11 +119,11 @@ std::vector<StudyComparison> compare(const std::vector<StudyPoint>& points, cons
   for (const auto& mesh : meshes) {
     std::vector<std::pair<double, double>> base_points;
     for (const auto& p : points)
-      if (p.mesh == mesh && p.family == base) base_points.emplace_back(p.time_median_ms, error_of(p));
+      if (p.mesh == mesh && p.family == base && !p.skipped) base_points.emplace_back(p.time_median_ms, error_of(p));
     if (base_points.empty()) continue;
     const Front front = make_front(base_points);
     for (const auto& p : points) {
-      if (p.mesh != mesh || p.family == base) continue;
+      if (p.mesh != mesh || p.family == base || p.skipped) continue;
       StudyComparison c;
       c.mesh = mesh;
       c.chi = p.chi;
@@ -204,30 +148,46 @@ void print_mesh_tables(std::ostream& out, const std::string& scene, const std::s
                        const std::vector<StudyPoint>& pts, const std::vector<StudyComparison>& cmp) {
   const StudyPoint& first = pts.front();
   char title[512];
-  std::snprintf(title, sizeof title,
-                "\n%s / mesh %s: %lld x %lld x %lld cells of %.3g (chi = %.3g), %lld particles, %d thread(s), "
-                "median of %d",
-                scene.c_str(), first.mesh.c_str(), static_cast<long long>(first.grid[0]),
-                static_cast<long long>(first.grid[1]), static_cast<long long>(first.grid[2]), first.cell_size,
-                first.chi, static_cast<long long>(first.particles), first.threads, first.repeats);
+  if (first.mesh_type == "cartesian")
+    std::snprintf(title, sizeof title,
+                  "\n%s / mesh %s: %lld x %lld x %lld cells of %.3g (chi = %.3g), %lld particles, %d thread(s), "
+                  "median of %d",
+                  scene.c_str(), first.mesh.c_str(), static_cast<long long>(first.grid[0]),
+                  static_cast<long long>(first.grid[1]), static_cast<long long>(first.grid[2]), first.cell_size,
+                  first.chi, static_cast<long long>(first.particles), first.threads, first.repeats);
+  else
+    std::snprintf(title, sizeof title,
+                  "\n%s / mesh %s: %s of %lld cells, mean cube root of the cell volume %.3g (chi = %.3g: that "
+                  "over the mean particle diameter), %lld particles, %d thread(s), median of %d",
+                  scene.c_str(), first.mesh.c_str(), first.mesh_type == "polymesh" ? "polyMesh" : "rectilinear grid",
+                  static_cast<long long>(first.cells), first.cell_size, first.chi,
+                  static_cast<long long>(first.particles), first.threads, first.repeats);
   out << title << '\n';
   std::vector<std::vector<std::string>> rows = {
       {"family", "setting", "ms/compute", "theta", "max|err|", "L1", "grid", "pareto"}};
-  for (const auto& p : pts)
-    rows.push_back({p.family + (p.is_reference ? " *" : ""), setting_text(p), fmt("%.3f", p.time_median_ms),
-                    fmt("%.3e", p.accuracy.theta), fmt("%.3e", p.accuracy.max_error), fmt("%.3e", p.accuracy.l1),
+  std::vector<std::string> skipped;
+  for (const auto& p : pts) {
+    if (p.skipped) {
+      rows.push_back({p.family, setting_text(p), "skipped", "-", "-", "-", "-", ""});
+      if (std::find(skipped.begin(), skipped.end(), p.note) == skipped.end()) skipped.push_back(p.note);
+      continue;
+    }
+    rows.push_back({p.family + (p.is_reference ? " *" : ""), setting_text(p), table_number("%.3f", p.time_median_ms),
+                    table_number("%.3e", p.accuracy.theta), table_number("%.3e", p.accuracy.max_error), table_number("%.3e", p.accuracy.l1),
                     grid_range(p.particle_grid_min, p.particle_grid_max), p.pareto ? "yes" : ""});
-  print_columns(out, rows);
+  }
+  print_columns(out, rows, 2);
+  for (const auto& why : skipped) out << "skipped: " << why << '\n';
   if (cmp.empty()) return;
   out << "\n" << base << " against every other point (L1; log-log interpolation along " << base << "'s front):\n";
   rows = {{"family", "setting", "ms", "L1", base + " ms at L1", "speedup", base + " L1 at ms", "L1 ratio"}};
   for (const auto& c : cmp)
-    rows.push_back({c.family, c.setting.empty() ? "-" : c.setting, fmt("%.3f", c.time_ms), fmt("%.3e", c.l1),
-                    fmt("%.3f", c.base_time_at_error),
-                    c.speedup_note == "n/a" ? "n/a" : c.speedup_note + fmt("%.2f", c.speedup),
-                    fmt("%.3e", c.base_error_at_time),
-                    c.gain_note == "n/a" ? "n/a" : c.gain_note + fmt("%.2f", c.accuracy_gain)});
-  print_columns(out, rows);
+    rows.push_back({c.family, c.setting.empty() ? "-" : c.setting, table_number("%.3f", c.time_ms), table_number("%.3e", c.l1),
+                    table_number("%.3f", c.base_time_at_error),
+                    c.speedup_note == "n/a" ? "n/a" : c.speedup_note + table_number("%.2f", c.speedup),
+                    table_number("%.3e", c.base_error_at_time),
+                    c.gain_note == "n/a" ? "n/a" : c.gain_note + table_number("%.2f", c.accuracy_gain)});
+  print_columns(out, rows, 2);
   out << "(speedup = ms / " << base << " ms at the same L1; L1 ratio = L1 / " << base
       << " L1 at the same ms; '>=' a bound: " << base << "'s settings go no further; * reference)\n";
   out.flush();
@@ -245,11 +205,7 @@ StudyResult run_study(const SceneConfig& cfg, const StudyOptions& opt) {
     if (!(x > 0)) throw ConfigError("chi must be > 0 (got " + std::to_string(x) + ")");
   if (chis.empty() && cfg.meshes.empty())
     throw ConfigError(source + ": the study has no grid; add chi: [0.75, 1, 2, 3] (or meshes)");
-  for (const MeshSpec& m : cfg.meshes)
-    if (m.type != "cartesian")
-      throw ConfigError(source + (m.line > 0 ? ":" + std::to_string(m.line) : std::string()) + ": mesh '" + m.name +
-                        "' is a " + m.type + " mesh; vfe study runs on Cartesian grids (chi or cartesian meshes): "
-                        "use vfe run for polyMesh scenes");
+  check_mesh_paths(cfg);
   const fs::path out_dir = opt.output.value_or(cfg.output);
 
   std::string global = scene_options(cfg, opt.threads, "", source);
@@ -272,7 +228,15 @@ StudyResult run_study(const SceneConfig& cfg, const StudyOptions& opt) {
       return o;
     };
     (void)options_of(cfg.reference, "", "reference");
+    for (const std::string& f : opt.families)
+      if (std::none_of(cfg.methods.begin(), cfg.methods.end(), [&](const MethodSpec& m) { return m.label == f; })) {
+        std::string known;
+        for (const auto& m : cfg.methods) known += (known.empty() ? "" : ", ") + m.label;
+        throw ConfigError(source + ": no method family '" + f + "' to run; the config has " + known);
+      }
     for (const auto& m : cfg.methods) {
+      if (!opt.families.empty() && std::find(opt.families.begin(), opt.families.end(), m.label) == opt.families.end())
+        continue;
       if (m.settings.empty()) jobs.push_back({m, "", options_of(m, "", "method")});
       for (const auto& s : m.settings) jobs.push_back({m, s, options_of(m, s, "method")});
     }
@@ -303,25 +267,33 @@ StudyResult run_study(const SceneConfig& cfg, const StudyOptions& opt) {
     throw std::runtime_error(out_dir.string() + ": cannot create the output folder (" + ec.message() +
                              "); choose another with --output or 'output:'");
 
-  std::vector<MeshSpec> meshes = cfg.meshes;
-  for (double x : chis) meshes.push_back(chi_mesh(x, mean_d));
+  const std::vector<MeshSpec> meshes = scene_meshes(cfg, chis, mean_d);
 
   StudyResult result;
   result.output = out_dir;
   for (const MeshSpec& mesh : meshes) {
-    std::string note;
-    const vfe::CartesianGridSpec grid = resolve_grid(mesh, &frame.box, source, &note);
-    vfe::Engine engine(grid);
+    SceneMesh built = build_scene_mesh(mesh, &frame.box, source);
+    vfe::Engine& engine = *built.engine;
     register_shapes(cfg, engine);
-    const auto ncells = static_cast<std::size_t>(engine.cell_count());
-    std::vector<double> cell_volume(ncells), ref(ncells), solid(ncells);
-    engine.cell_volumes(cell_volume);
-    const double cell_size = std::cbrt(cell_volume.empty() ? 0.0 : cell_volume[0]);
+    const std::vector<double>& cell_volume = built.cell_volumes;
+    const std::size_t ncells = cell_volume.size();
+    std::vector<double> ref(ncells), solid(ncells);
+    // Cartesian cells are all alike; elsewhere the cell size is the mean cube root of the
+    // cell volumes (chi then says what a typical particle meets, not the largest cells).
+    const bool uniform = mesh.type == "cartesian";
+    const double cell_size =
+        uniform ? std::cbrt(cell_volume.empty() ? 0.0 : cell_volume[0]) : built.mean_cube_root_volume();
     const double chi = mean_d > 0 ? cell_size / mean_d : 0.0;
-    log->info("mesh '{}': {} x {} x {} cells of {:.4g} (chi = {:.3g})", mesh.name, grid.cells[0], grid.cells[1],
-              grid.cells[2], cell_size, chi);
-    engine.configure(reference_options);
-    engine.compute(particles, ref);
+    if (uniform)
+      log->info("mesh '{}': {} x {} x {} cells of {:.4g} (chi = {:.3g})", mesh.name, built.grid.cells[0],
+                built.grid.cells[1], built.grid.cells[2], cell_size, chi);
+    else
+      log->info("mesh '{}': {} of {} cells, mean cube root of the cell volume {:.4g} (chi = {:.3g})", mesh.name,
+                built.polymesh() ? "polyMesh" : "rectilinear grid", ncells, cell_size, chi);
+    with_mesh_context(mesh, "reference '" + cfg.reference.label + "'", [&] {
+      engine.configure(reference_options);
+      engine.compute(particles, ref);
+    });
     const double particle_volume = engine.last_report().particle_volume;
 
     // Warm-up and errors, one point after the other; then the timed computes in turns
@@ -329,11 +301,9 @@ StudyResult run_study(const SceneConfig& cfg, const StudyOptions& opt) {
     std::vector<StudyPoint> pts(jobs.size());
     for (std::size_t i = 0; i < jobs.size(); ++i) {
       const Job& job = jobs[i];
-      engine.configure(job.options);
-      engine.compute(particles, solid);
-      const vfe::Report rep = engine.last_report();
       StudyPoint& p = pts[i];
       p.mesh = mesh.name;
+      p.mesh_type = mesh.type;
       p.family = job.spec.label;
       p.method = job.spec.method;
       p.setting = job.setting;
@@ -341,12 +311,29 @@ StudyResult run_study(const SceneConfig& cfg, const StudyOptions& opt) {
       p.is_reference = job.options == reference_options;
       p.chi = chi;
       p.cell_size = cell_size;
-      p.grid = grid.cells;
+      p.grid = built.cells_per_axis;
       p.cells = static_cast<std::int64_t>(ncells);
       p.particles = frame.n;
       p.threads = threads_used;
       p.repeats = repeats;
+      try {
+        engine.configure(job.options);
+      } catch (const vfe::Error& e) {
+        // A method this mesh kind does not offer (trilinear on a polyMesh) is a skipped point.
+        if (e.status() != VFE_ERROR_UNSUPPORTED) throw;
+        p.skipped = true;
+        p.note = e.what();
+        p.time_median_ms = p.time_min_ms = kNaN;
+        p.accuracy.theta = p.accuracy.max_error = p.accuracy.l1 = p.accuracy.volume_error = kNaN;
+        log->warn("mesh '{}': {} {} skipped: {}", mesh.name, p.family, setting_text(p), e.what());
+        continue;
+      }
+      const auto t0 = Clock::now();
+      with_mesh_context(mesh, p.family + " " + setting_text(p), [&] { engine.compute(particles, solid); });
+      const double warm_up_ms = ms_since(t0);
+      const vfe::Report rep = engine.last_report();
       p.accuracy = vfe::compare_fields(solid, ref, cell_volume, particle_volume);
+      log->info("  {} {}: L1 {:.3e}, warm-up {:.1f} ms", p.family, setting_text(p), p.accuracy.l1, warm_up_ms);
       p.fast_path_particles = rep.fast_path_particles;
       p.sub_elements = rep.sub_elements;
       p.particle_grid_min = rep.particle_grid_min;
@@ -355,12 +342,14 @@ StudyResult run_study(const SceneConfig& cfg, const StudyOptions& opt) {
     std::vector<std::vector<double>> times(jobs.size());
     for (int r = 0; r < repeats; ++r)
       for (std::size_t i = 0; i < jobs.size(); ++i) {
+        if (pts[i].skipped) continue;
         engine.configure(jobs[i].options);
         const auto t0 = Clock::now();
         engine.compute(particles, solid);
         times[i].push_back(ms_since(t0));
       }
     for (std::size_t i = 0; i < jobs.size(); ++i) {
+      if (pts[i].skipped) continue;
       pts[i].time_median_ms = median(times[i]);
       pts[i].time_min_ms = *std::min_element(times[i].begin(), times[i].end());
     }
@@ -375,63 +364,65 @@ StudyResult run_study(const SceneConfig& cfg, const StudyOptions& opt) {
   std::ostringstream csv;
   csv << "scene,mesh,chi,cell_size,nx,ny,nz,cells,particles,threads,repeats,family,method,setting,options,"
          "reference,time_median_ms,time_min_ms,theta,max_error,l1,volume_error,cells_compared,fast_path_particles,"
-         "sub_elements,particle_grid_min,particle_grid_max,pareto\n";
+         "sub_elements,particle_grid_min,particle_grid_max,pareto,mesh_type,status,note\n";
   for (const auto& p : result.points)
-    csv << csv_field(cfg.name) << ',' << csv_field(p.mesh) << ',' << num(p.chi, "nan") << ','
-        << num(p.cell_size, "nan") << ',' << p.grid[0] << ',' << p.grid[1] << ',' << p.grid[2] << ',' << p.cells
+    csv << csv_field(cfg.name) << ',' << csv_field(p.mesh) << ',' << csv_number(p.chi) << ','
+        << csv_number(p.cell_size) << ',' << p.grid[0] << ',' << p.grid[1] << ',' << p.grid[2] << ',' << p.cells
         << ',' << p.particles << ',' << p.threads << ',' << p.repeats << ',' << csv_field(p.family) << ','
         << csv_field(p.method) << ',' << csv_field(p.setting) << ',' << csv_field(p.options) << ','
-        << (p.is_reference ? 1 : 0) << ',' << num(p.time_median_ms, "nan") << ',' << num(p.time_min_ms, "nan")
-        << ',' << num(p.accuracy.theta, "nan") << ',' << num(p.accuracy.max_error, "nan") << ','
-        << num(p.accuracy.l1, "nan") << ',' << num(p.accuracy.volume_error, "nan") << ','
+        << (p.is_reference ? 1 : 0) << ',' << csv_number(p.time_median_ms) << ',' << csv_number(p.time_min_ms)
+        << ',' << csv_number(p.accuracy.theta) << ',' << csv_number(p.accuracy.max_error) << ','
+        << csv_number(p.accuracy.l1) << ',' << csv_number(p.accuracy.volume_error) << ','
         << p.accuracy.cells_compared << ',' << p.fast_path_particles << ',' << p.sub_elements << ','
-        << p.particle_grid_min << ',' << p.particle_grid_max << ',' << (p.pareto ? 1 : 0) << '\n';
+        << p.particle_grid_min << ',' << p.particle_grid_max << ',' << (p.pareto ? 1 : 0) << ','
+        << csv_field(p.mesh_type) << ',' << (p.skipped ? "skipped" : "ok") << ',' << csv_field(p.note) << '\n';
   write_text_file(out_dir / "study.csv", csv.str());
 
   std::ostringstream ccsv;
   ccsv << "scene,mesh,chi,base,family,setting,time_ms,l1,base_time_at_error,speedup,speedup_note,"
           "base_error_at_time,accuracy_gain,gain_note\n";
   for (const auto& c : result.comparisons)
-    ccsv << csv_field(cfg.name) << ',' << csv_field(c.mesh) << ',' << num(c.chi, "nan") << ','
+    ccsv << csv_field(cfg.name) << ',' << csv_field(c.mesh) << ',' << csv_number(c.chi) << ','
          << csv_field(opt.base) << ',' << csv_field(c.family) << ',' << csv_field(c.setting) << ','
-         << num(c.time_ms, "nan") << ',' << num(c.l1, "nan") << ',' << num(c.base_time_at_error, "nan") << ','
-         << num(c.speedup, "nan") << ',' << csv_field(c.speedup_note) << ',' << num(c.base_error_at_time, "nan")
-         << ',' << num(c.accuracy_gain, "nan") << ',' << csv_field(c.gain_note) << '\n';
+         << csv_number(c.time_ms) << ',' << csv_number(c.l1) << ',' << csv_number(c.base_time_at_error) << ','
+         << csv_number(c.speedup) << ',' << csv_field(c.speedup_note) << ',' << csv_number(c.base_error_at_time)
+         << ',' << csv_number(c.accuracy_gain) << ',' << csv_field(c.gain_note) << '\n';
   write_text_file(out_dir / "comparisons.csv", ccsv.str());
 
   std::ostringstream js;
-  js << "{\n  \"scene\": " << quoted(cfg.name) << ",\n  \"vfe_version\": " << quoted(vfe_version())
-     << ",\n  \"particles_file\": " << quoted(frame.source_name)
+  js << "{\n  \"scene\": " << json_string(cfg.name) << ",\n  \"vfe_version\": " << json_string(vfe_version())
+     << ",\n  \"particles_file\": " << json_string(frame.source_name)
      << ",\n  \"timestep\": " << frame.timestep << ",\n  \"particles\": " << frame.n
-     << ",\n  \"mean_diameter\": " << num(mean_d, "null") << ",\n  \"threads\": " << threads_used
-     << ",\n  \"repeats\": " << repeats << ",\n  \"options\": " << quoted(global)
-     << ",\n  \"reference\": " << quoted(cfg.reference.label) << ",\n  \"base\": " << quoted(opt.base)
+     << ",\n  \"mean_diameter\": " << json_number(mean_d) << ",\n  \"threads\": " << threads_used
+     << ",\n  \"repeats\": " << repeats << ",\n  \"options\": " << json_string(global)
+     << ",\n  \"reference\": " << json_string(cfg.reference.label) << ",\n  \"base\": " << json_string(opt.base)
      << ",\n  \"error_measure\": \"l1\",\n  \"points\": [";
   for (std::size_t i = 0; i < result.points.size(); ++i) {
     const auto& p = result.points[i];
-    js << (i ? ",\n" : "\n") << "    {\"mesh\": " << quoted(p.mesh) << ", \"chi\": " << num(p.chi, "null")
-       << ", \"cell_size\": " << num(p.cell_size, "null") << ", \"grid\": [" << p.grid[0] << ", " << p.grid[1]
-       << ", " << p.grid[2] << "], \"family\": " << quoted(p.family) << ", \"method\": " << quoted(p.method)
-       << ", \"setting\": " << quoted(p.setting) << ", \"options\": " << quoted(p.options)
+    js << (i ? ",\n" : "\n") << "    {\"mesh\": " << json_string(p.mesh) << ", \"chi\": " << json_number(p.chi)
+       << ", \"cell_size\": " << json_number(p.cell_size) << ", \"grid\": [" << p.grid[0] << ", " << p.grid[1]
+       << ", " << p.grid[2] << "], \"family\": " << json_string(p.family) << ", \"method\": " << json_string(p.method)
+       << ", \"setting\": " << json_string(p.setting) << ", \"options\": " << json_string(p.options)
        << ", \"reference\": " << (p.is_reference ? "true" : "false")
-       << ", \"time_median_ms\": " << num(p.time_median_ms, "null")
-       << ", \"time_min_ms\": " << num(p.time_min_ms, "null") << ", \"theta\": " << num(p.accuracy.theta, "null")
-       << ", \"max_error\": " << num(p.accuracy.max_error, "null") << ", \"l1\": " << num(p.accuracy.l1, "null")
-       << ", \"volume_error\": " << num(p.accuracy.volume_error, "null")
+       << ", \"time_median_ms\": " << json_number(p.time_median_ms)
+       << ", \"time_min_ms\": " << json_number(p.time_min_ms) << ", \"theta\": " << json_number(p.accuracy.theta)
+       << ", \"max_error\": " << json_number(p.accuracy.max_error) << ", \"l1\": " << json_number(p.accuracy.l1)
+       << ", \"volume_error\": " << json_number(p.accuracy.volume_error)
        << ", \"fast_path_particles\": " << p.fast_path_particles << ", \"sub_elements\": " << p.sub_elements
        << ", \"particle_grid_min\": " << p.particle_grid_min << ", \"particle_grid_max\": " << p.particle_grid_max
-       << ", \"pareto\": " << (p.pareto ? "true" : "false") << "}";
+       << ", \"pareto\": " << (p.pareto ? "true" : "false") << ", \"mesh_type\": " << json_string(p.mesh_type)
+       << ", \"skipped\": " << (p.skipped ? "true" : "false") << ", \"note\": " << json_string(p.note) << "}";
   }
   js << "\n  ],\n  \"comparisons\": [";
   for (std::size_t i = 0; i < result.comparisons.size(); ++i) {
     const auto& c = result.comparisons[i];
-    js << (i ? ",\n" : "\n") << "    {\"mesh\": " << quoted(c.mesh) << ", \"chi\": " << num(c.chi, "null")
-       << ", \"family\": " << quoted(c.family) << ", \"setting\": " << quoted(c.setting)
-       << ", \"time_ms\": " << num(c.time_ms, "null") << ", \"l1\": " << num(c.l1, "null")
-       << ", \"base_time_at_error\": " << num(c.base_time_at_error, "null")
-       << ", \"speedup\": " << num(c.speedup, "null") << ", \"speedup_note\": " << quoted(c.speedup_note)
-       << ", \"base_error_at_time\": " << num(c.base_error_at_time, "null")
-       << ", \"accuracy_gain\": " << num(c.accuracy_gain, "null") << ", \"gain_note\": " << quoted(c.gain_note)
+    js << (i ? ",\n" : "\n") << "    {\"mesh\": " << json_string(c.mesh) << ", \"chi\": " << json_number(c.chi)
+       << ", \"family\": " << json_string(c.family) << ", \"setting\": " << json_string(c.setting)
+       << ", \"time_ms\": " << json_number(c.time_ms) << ", \"l1\": " << json_number(c.l1)
+       << ", \"base_time_at_error\": " << json_number(c.base_time_at_error)
+       << ", \"speedup\": " << json_number(c.speedup) << ", \"speedup_note\": " << json_string(c.speedup_note)
+       << ", \"base_error_at_time\": " << json_number(c.base_error_at_time)
+       << ", \"accuracy_gain\": " << json_number(c.accuracy_gain) << ", \"gain_note\": " << json_string(c.gain_note)
        << "}";
   }
   js << "\n  ]\n}\n";

@@ -29,6 +29,9 @@ struct StudyOptions {
   std::optional<int> repeats;                   ///< replaces the config's repeats
   std::optional<std::vector<double>> chi;       ///< replaces the config's chi list
   std::string base = "pmm";                     ///< the family compared with every other point
+  /// Only these families (method labels) of the config; empty = every one. An unknown
+  /// label is a ConfigError.
+  std::vector<std::string> families;
   std::shared_ptr<spdlog::logger> logger;       ///< progress; null = a quiet app logger
   std::ostream* table = nullptr;                ///< where the tables go; null = none
 };
@@ -36,14 +39,17 @@ struct StudyOptions {
 /// One point of the study: a method family at one setting on one grid.
 struct StudyPoint {
   std::string mesh;
+  std::string mesh_type = "cartesian";  ///< "cartesian", "rectilinear" or "polymesh"
   std::string family;   ///< the method entry's label (a line in the plot)
   std::string method;   ///< engine method
   std::string setting;  ///< the setting's option string ("" for a method without settings)
   std::string options;  ///< the engine's full option string
   bool is_reference = false;
   double chi = 0;        ///< cell size / mean particle diameter
-  double cell_size = 0;  ///< cube root of the cell volume
-  std::array<std::int64_t, 3> grid{0, 0, 0};
+  /// Cube root of the cell volume; on rectilinear grids and polyMeshes the mean over the
+  /// cells of the cube root of each cell's volume.
+  double cell_size = 0;
+  std::array<std::int64_t, 3> grid{0, 0, 0};  ///< cells per axis; {0, 0, 0} on a polyMesh
   std::int64_t cells = 0;
   std::int64_t particles = 0;
   int threads = 0;
@@ -56,6 +62,10 @@ struct StudyPoint {
   std::int64_t particle_grid_min = 0;
   std::int64_t particle_grid_max = 0;
   bool pareto = false;  ///< no point of the same grid is both faster and more accurate (L1)
+  /// The mesh kind does not offer the method (VFE_ERROR_UNSUPPORTED at configure, e.g.
+  /// trilinear on a polyMesh): no times or errors (NaN), note says why; never on the front.
+  bool skipped = false;
+  std::string note;
 };
 
 /// The base family against one point of another family on the same grid, by L1 (errors
@@ -80,11 +90,13 @@ struct StudyResult {
   std::filesystem::path output;  ///< folder holding study.csv, study.json, comparisons.csv
 };
 
-/// Runs the study of a scene config (its meshes and chi grids, every method at every
-/// setting). Throws ConfigError, DumpError, vfe::Error or std::runtime_error naming the problem.
+/// Runs the study of a scene config (its meshes: Cartesian, rectilinear or OpenFOAM polyMesh,
+/// and its chi grids; every method at every setting). A method the mesh kind refuses with
+/// VFE_ERROR_UNSUPPORTED is a skipped point. Throws ConfigError, DumpError, vfe::Error or std::runtime_error naming the problem.
 StudyResult run_study(const SceneConfig& config, const StudyOptions& options);
 
-/// Marks the Pareto-optimal points of each mesh (time against L1).
+/// Marks the Pareto-optimal points of each mesh (time against L1); skipped points are neither
+/// on the front nor dominate.
 void mark_pareto(std::vector<StudyPoint>& points);
 
 /// A family's front: (time, error) pairs sorted by time, errors strictly decreasing.

@@ -1,5 +1,7 @@
 #include "vtk_writer.hpp"
 
+#include "text_format.hpp"
+
 #include <array>
 #include <bit>
 #include <cstdint>
@@ -39,11 +41,6 @@ std::string base64(const unsigned char* data, std::size_t n) {
   return out;
 }
 
-std::string num(double v) {
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "%.17g", v);
-  return buf;
-}
 
 template <class T>
 constexpr const char* vtk_type() {
@@ -68,7 +65,7 @@ void data_array(std::ostream& o, const std::string& name, std::span<const T> val
     for (std::size_t i = 0; i < values.size(); ++i) {
       o << (i % per_line == 0 ? std::string(indent) + "  " : std::string(" "));
       if constexpr (std::is_same_v<T, double>)
-        o << num(values[i]);
+        o << round_trip(values[i]);
       else
         o << static_cast<long long>(values[i]);
       if (i % per_line == per_line - 1) o << '\n';
@@ -82,14 +79,6 @@ void data_array(std::ostream& o, const std::string& name, std::span<const T> val
     o << indent << "  " << base64(buf.data(), buf.size()) << '\n';
   }
   o << indent << "</DataArray>\n";
-}
-
-void write_text_file(const std::filesystem::path& file, const std::string& text) {
-  std::ofstream out(file, std::ios::binary);
-  if (!out) throw std::runtime_error(file.string() + ": cannot write the VTK file; check the output folder");
-  out << text;
-  out.flush();
-  if (!out) throw std::runtime_error(file.string() + ": writing the VTK file failed (disk full?)");
 }
 
 }  // namespace
@@ -108,9 +97,9 @@ void write_vti(const std::filesystem::path& file, const vfe::CartesianGridSpec& 
   o << "<?xml version=\"1.0\"?>\n";
   o << "<VTKFile type=\"ImageData\" version=\"1.0\" byte_order=\"" << (little ? "LittleEndian" : "BigEndian")
     << "\" header_type=\"UInt64\">\n";
-  o << "  <ImageData WholeExtent=\"" << extent << "\" Origin=\"" << num(g.origin[0]) << ' ' << num(g.origin[1])
-    << ' ' << num(g.origin[2]) << "\" Spacing=\"" << num(g.spacing[0]) << ' ' << num(g.spacing[1]) << ' '
-    << num(g.spacing[2]) << "\">\n";
+  o << "  <ImageData WholeExtent=\"" << extent << "\" Origin=\"" << round_trip(g.origin[0]) << ' '
+    << round_trip(g.origin[1]) << ' ' << round_trip(g.origin[2]) << "\" Spacing=\"" << round_trip(g.spacing[0])
+    << ' ' << round_trip(g.spacing[1]) << ' ' << round_trip(g.spacing[2]) << "\">\n";
   o << "    <Piece Extent=\"" << extent << "\">\n";
   o << "      <PointData>\n      </PointData>\n";
   o << "      <CellData" << (arrays.empty() ? "" : " Scalars=\"" + arrays.front().name + "\"") << ">\n";

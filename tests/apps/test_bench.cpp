@@ -4,6 +4,7 @@
 #include "test_util.hpp"
 
 #include <vfe/engine.hpp>
+#include <vfe/vfe.h>
 
 #include <gtest/gtest.h>
 
@@ -119,4 +120,20 @@ TEST(Bench, BadArgumentsAreNamed) {
   c = tiny_command(dir / "bench");
   c.options = "threads=4";
   EXPECT_NE(error_of(c).find("--threads"), std::string::npos);
+}
+
+TEST(Bench, AllIsEveryEngineMethod) {
+  test::TempDir dir;
+  BenchCommand c = tiny_command(dir / "bench");
+  c.particles = {300};
+  c.chi = {2};
+  c.methods = {"all"};
+  c.limits = false;
+  const BenchOutcome out = run_bench(c);
+  // The engine's own list through its C API (vfe_method_name), independent of the bench.
+  std::vector<std::string> names;
+  for (std::int32_t i = 0; vfe_method_name(i); ++i) names.emplace_back(vfe_method_name(i));
+  ASSERT_EQ(names.size(), 8u);  // direct, pmm, exact, divided, gaussian, porous_cube, big_particle, trilinear
+  ASSERT_EQ(out.rows.size(), names.size());
+  for (std::size_t i = 0; i < names.size(); ++i) EXPECT_EQ(out.rows[i].method, names[i]);
 }

@@ -439,12 +439,106 @@ TEST(PolyMeshConfig, MissingPolyMeshFailsBeforeAnyWork) {
   }
 }
 
-TEST(PolyMeshConfig, StudyNamesThePolyMesh) {
-  PolyScene scene("  - {name: box, type: polymesh, path: " + kBoxCase.string() + "}\n");
-  try {
-    (void)run_study(load_config(scene.config), StudyOptions{});
-    FAIL() << "no error";
-  } catch (const ConfigError& e) {
-    EXPECT_NE(std::string(e.what()).find("vfe run"), std::string::npos) << e.what();
+TEST(PolyMeshStudy, EveryMeshKindWithChiFromTheMeanCubeRoot) {
+  // The same 10 x 10 x 30 cells of 2 mm as a polyMesh, a Cartesian grid and a rectilinear
+  // grid, and the graded box polyMesh (cells of unequal volume).
+  const fs::path graded = kSource / "data" / "openfoam" / "box_graded";
+  PolyScene scene("", 40);
+  test::write_text(scene.config,
+                   "name: poly_study\n"
+                   "particles:\n  file: data/tiny.dump.gz\n"
+                   "meshes:\n"
+                   "  - {name: box, type: polymesh, path: " + kBoxCase.string() + "}\n"
+                   "  - {name: grid, origin: [0, 0, 0], spacing: [0.002, 0.002, 0.002], cells: [10, 10, 30]}\n"
+                   "  - {name: rect, type: rectilinear, x: {lo: 0, hi: 0.02, cells: 10}, y: {lo: 0, hi: 0.02, "
+                   "cells: 10}, z: {lo: 0, hi: 0.06, cells: 30}}\n"
+                   "  - {name: graded, type: polymesh, path: " + graded.string() + "}\n"
+                   "methods:\n"
+                   "  - direct\n"
+                   "  - {method: pmm, settings: [\"particle_grid=5\", \"particle_grid=40\"]}\n"
+                   "  - {method: gaussian, settings: [\"sigma=0.25\"]}\n"
+                   "  - porous_cube\n"
+                   "  - trilinear\n"
+                   "  - exact\n"
+                   "reference: exact\n"
+                   "threads: 1\n"
+                   "repeats: 1\n"
+                   // The part of a kernel beyond the wall goes to the particle's own cell, the
+                   // same cell on every mesh kind (nearest may pick another one at a corner).
+                   "options: \"outside=centre\"\n"
+                   "output: out\n");
+  std::ostringstream table;
+  StudyOptions opt;
+  opt.table = &table;
+  const StudyResult res = run_study(load_config(scene.config), opt);
+  ASSERT_EQ(res.points.size(), 4u * 7u);
+
+  const DumpFrame frame = read_dump_frame((scene.dir / "data" / "tiny.dump.gz").string(), FrameSelector{-1});
+  double mean_d = 0;
+  for (double r : frame.radii) mean_d += 2 * r;
+  mean_d /= static_cast<double>(frame.radii.size());
+  // The graded mesh's chi: the mean over its cells of the cube root of the cell volume.
+  vfe::Engine graded_engine(vfe::PolyMeshSpec{graded.string()});
+  std::vector<double> volumes(static_cast<std::size_t>(graded_engine.cell_count()));
+  graded_engine.cell_volumes(volumes);
+  double mean_root = 0, mean_volume = 0;
+  for (double v : volumes) {
+    mean_root += std::cbrt(v) / static_cast<double>(volumes.size());
+    mean_volume += v / static_cast<double>(volumes.size());
   }
+  ASSERT_GT(std::cbrt(mean_volume) - mean_root, 1e-3 * mean_root);  // the two means differ here
+
+  auto point = [&](const std::string& mesh, const std::string& family, const std::string& setting) {
+    const auto it = std::find_if(res.points.begin(), res.points.end(), [&](const StudyPoint& p) {
+      return p.mesh == mesh && p.family == family && p.setting == setting;
+    });
+    if (it == res.points.end()) throw std::logic_error("no point " + mesh + " " + family + " " + setting);
+    return *it;
+  };
+  for (const StudyPoint& p : res.points) {
+    SCOPED_TRACE(p.mesh + " " + p.family + " " + p.setting);
+    EXPECT_NEAR(p.chi, p.mesh == "graded" ? mean_root / mean_d : 0.002 / mean_d, 1e-9 * p.chi);
+    EXPECT_EQ(p.mesh_type, p.mesh == "grid" ? "cartesian" : p.mesh == "rect" ? "rectilinear" : "polymesh");
+    EXPECT_EQ(p.particles, 40);
+    if (p.family == "trilinear" && p.mesh_type == "polymesh") {  // refused at configure: skipped
+      EXPECT_TRUE(p.skipped);
+      EXPECT_FALSE(p.pareto);
+      EXPECT_TRUE(std::isnan(p.time_median_ms));
+      EXPECT_NE(p.note.find("polyMesh"), std::string::npos) << p.note;
+      continue;
+    }
+    EXPECT_FALSE(p.skipped);
+    EXPECT_GT(p.time_median_ms, 0.0);
+    EXPECT_LT(p.accuracy.volume_error, 1e-9);
+    if (p.family == "exact") {
+      EXPECT_LT(p.accuracy.l1, 1e-12);
+      EXPECT_TRUE(p.pareto);
+    } else {
+      EXPECT_GT(p.accuracy.l1, 1e-4);
+    }
+    if (p.mesh == "box" || p.mesh == "rect") {
+      // Same cells as the Cartesian grid: the same errors against exact.
+      const StudyPoint c = point("grid", p.family, p.setting);
+      EXPECT_NEAR(p.accuracy.l1, c.accuracy.l1, 1e-9);
+      EXPECT_NEAR(p.accuracy.theta, c.accuracy.theta, 1e-9);
+      EXPECT_EQ(p.grid, (p.mesh == "box" ? std::array<std::int64_t, 3>{0, 0, 0} : c.grid));
+    }
+  }
+  // The skipped points are in the files with their reason, and compared with nothing.
+  for (const auto& c : res.comparisons) EXPECT_FALSE((c.mesh == "box" || c.mesh == "graded") && c.family == "trilinear");
+  bool skipped_row = false;
+  for (const auto& row : read_csv(res.output / "study.csv")) {
+    if (row.at("mesh") == "box" && row.at("family") == "trilinear") {
+      EXPECT_EQ(row.at("status"), "skipped");
+      EXPECT_EQ(row.at("mesh_type"), "polymesh");
+      EXPECT_EQ(row.at("cells"), "3000");
+      skipped_row = true;
+    }
+  }
+  EXPECT_TRUE(skipped_row);
+  const std::string t = table.str();
+  for (const char* s : {"mesh box: polyMesh of 3000 cells, mean cube root of the cell volume 0.002",
+                        "mesh rect: rectilinear grid of 3000 cells", "mesh grid: 10 x 10 x 30 cells",
+                        "skipped: "})
+    EXPECT_NE(t.find(s), std::string::npos) << s << "\n" << t;
 }

@@ -178,3 +178,25 @@ TEST(StudyDriver, TinySceneEndToEnd) {
   EXPECT_EQ(run.rows[2].label, "pmm_particle_grid-40");
   EXPECT_EQ(run.rows[0].mesh, "chi_1");
 }
+
+TEST(StudyDriver, FamiliesSelectsMethodsAndNamesUnknownOnes) {
+  test::TempDir dir;
+  fs::create_directories(dir / "data");
+  test::write_gzip(dir / "data" / "tiny.dump.gz", tiny_dump(30, 7));
+  test::write_text(dir / "study.yaml", kStudy);
+  StudyOptions opt;
+  opt.chi = std::vector<double>{2};
+  opt.families = {"direct", "pmm"};
+  const StudyResult res = run_study(load_config(dir / "study.yaml"), opt);
+  ASSERT_EQ(res.points.size(), 3u);  // direct and pmm's two settings
+  for (const auto& p : res.points) EXPECT_TRUE(p.family == "direct" || p.family == "pmm") << p.family;
+  opt.families = {"pmm", "gauss"};
+  try {
+    (void)run_study(load_config(dir / "study.yaml"), opt);
+    FAIL() << "no error";
+  } catch (const ConfigError& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("'gauss'"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("direct, pmm, divided, gaussian, exact"), std::string::npos) << msg;
+  }
+}

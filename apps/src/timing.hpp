@@ -1,0 +1,41 @@
+// Wall-clock timing of the apps' commands: one clock, milliseconds since a start, medians.
+#pragma once
+
+#include <algorithm>
+#include <chrono>
+#include <vector>
+
+namespace vfe::apps {
+
+using Clock = std::chrono::steady_clock;
+
+/// Milliseconds from t0 to now.
+inline double ms_since(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+/// Median of v (the mean of the middle two for an even count); 0 for none.
+inline double median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  const std::size_t m = v.size() / 2;
+  return v.size() % 2 ? v[m] : 0.5 * (v[m - 1] + v[m]);
+}
+
+struct Timing {
+  double median_ms = 0, min_ms = 0;
+};
+
+/// `repeats` (>= 1) timed calls of f (the caller has warmed it up).
+template <class F>
+Timing time_calls(int repeats, F&& f) {
+  std::vector<double> ms;
+  for (int i = 0; i < repeats; ++i) {
+    const auto t0 = Clock::now();
+    f();
+    ms.push_back(ms_since(t0));
+  }
+  return {median(ms), *std::min_element(ms.begin(), ms.end())};
+}
+
+}  // namespace vfe::apps
