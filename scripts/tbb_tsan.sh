@@ -14,22 +14,7 @@ if [ "$(cat "$prefix/.debian-version" 2>/dev/null)" = "$package=$version" ]; the
   exit 0
 fi
 rm -rf "$root"
-apt="$root/apt"
-mkdir -p "$apt/sources.list.d" "$apt/lists/partial" "$apt/cache/archives/partial"
-
-# deb-src entries made from the machine's own apt sources (deb822 and one-line formats), in
-# a private apt state so the system's sources and lists are left as they are.
-shopt -s nullglob
-for f in /etc/apt/sources.list.d/*.sources; do
-  sed -E 's/^Types:.*/Types: deb-src/' "$f" >"$apt/sources.list.d/$(basename "$f")"
-done
-for f in /etc/apt/sources.list /etc/apt/sources.list.d/*.list; do
-  [ -f "$f" ] && sed -nE 's/^deb[[:space:]]+(.*)/deb-src \1/p' "$f" >>"$apt/sources.list.d/deb-src.list"
-done
-apt_private=(-o "Dir::Etc::SourceList=/dev/null" -o "Dir::Etc::SourceParts=$apt/sources.list.d"
-             -o "Dir::State::Lists=$apt/lists" -o "Dir::Cache=$apt/cache")
-apt-get "${apt_private[@]}" update -qq
-(cd "$root" && apt-get "${apt_private[@]}" source -qq "$package=$version")
+scripts/apt_source.sh "$root" "$package=$version"
 source_dir="$(find "$root" -mindepth 1 -maxdepth 1 -type d -name "$package-*" | head -1)"
 [ -n "$source_dir" ] || { echo "tbb-tsan: apt-get source $package=$version gave no source folder" >&2; exit 1; }
 

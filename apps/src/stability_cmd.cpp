@@ -217,7 +217,8 @@ StabilityOutcome run_stability(const StabilityCommand& c) {
   for (const auto& tmpl : templates) {
     for (const auto& orient : orientations) {
       const std::string eopts = family_options(c, tmpl, orient);
-      probe.configure(defaults + " " + eopts);
+      probe.configure(defaults);  // then the family's own: an option string names each key once
+      probe.configure(eopts);
       const std::string tname = has_grid ? probe.option("template") : "-";
       const std::string oname = !c.shape.empty() ? "given" : has_grid ? probe.option("orientation") : "-";
       for (double chi : c.chi) {

@@ -1,6 +1,8 @@
 // Engine options: parsing "key=value key=value" and printing them back.
 #pragma once
 
+#include <vfe/vfe.h>
+
 #include <cstdint>
 #include <span>
 #include <string>
@@ -75,6 +77,6 @@ std::string option_value(const Options& o, std::string_view key);
 
 std::string_view to_string(Method m);
 /// Every method's name, in the order of Method (also in the public engine.hpp).
-std::span<const std::string_view> method_names();
+VFE_API std::span<const std::string_view> method_names();
 
 }  // namespace vfe

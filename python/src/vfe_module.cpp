@@ -513,6 +513,14 @@ PYBIND11_MODULE(_core, m) {
 
   m.def("version", &vfe_version, "Version of the loaded engine library, 'MAJOR.MINOR.PATCH'.");
   m.def(
+      "method_names",
+      [] {
+        py::list names;
+        for (const std::string_view name : vfe::method_names()) names.append(std::string(name));
+        return names;
+      },
+      "Every method's name ('direct', 'pmm', ...), in the engine's order.");
+  m.def(
       "status_name", [](int s) { return std::string(vfe_status_name(static_cast<vfe_status>(s))); }, py::arg("status"),
       "Name of a vfe_status code (0 -> 'VFE_OK').");
 

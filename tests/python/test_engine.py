@@ -12,6 +12,10 @@ from conftest import DATA, ball_volume, random_spheres
 METHODS = ["direct", "pmm", "exact", "divided", "gaussian", "porous_cube", "big_particle", "trilinear"]
 
 
+def test_method_names_are_the_engines():
+    assert vfe.method_names() == METHODS
+
+
 def grid(nx=4, ny=3, nz=5, h=1.0):
     return vfe.Engine.cartesian(origin=(0, 0, 0), spacing=(h, h, h), cells=(nx, ny, nz))
 

@@ -53,7 +53,7 @@ struct PolyMeshArrays {
 };
 
 /// Every method's name ("direct", "pmm", ...), in a fixed order.
-std::span<const std::string_view> method_names();
+VFE_API std::span<const std::string_view> method_names();
 
 /// Zero-copy view of the host's particle arrays. Strides count doubles between
 /// consecutive particles (0 = packed: 3 for centres, 1 for radii, 4 for orientations).
