@@ -95,7 +95,8 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   stability->add_option("--shape", stab.shape,
                         "A shaped particle instead of a sphere, e.g. \"ellipsoid 1 0.6 0.4\" (scaled to the volume-"
-                        "equivalent diameter, a random orientation per trajectory; reference: fine pmm)");
+                        "equivalent diameter, a random orientation per trajectory; reference: exact for ellipsoids and "
+                        "meshes, a fine pmm for superquadrics and clumps)");
   stability->add_option("--reference-grid", stab.reference_grid,
                         "particle_grid of the reference pmm for --shape")
       ->check(CLI::Range(std::int64_t{1}, std::int64_t{10000000}))

@@ -95,9 +95,13 @@ void print_block(std::ostream& out, const std::string& title, const std::vector<
   }
 }
 
-/// The reference of the jumps: exact for spheres, a fine pmm for shapes.
+/// The reference of the jumps: exact for spheres, ellipsoids and meshes, a fine pmm for
+/// the other shapes.
 std::string reference_name(const StabilityCommand& c) {
-  return c.shape.empty() ? "exact" : "pmm particle_grid=" + std::to_string(c.reference_grid);
+  vfe::StabilityOptions o;
+  o.shape = c.shape;
+  o.reference_grid = c.reference_grid;
+  return vfe::stability_reference(o).substr(std::string("method=").size());
 }
 
 void write_csv(const fs::path& file, const StabilityCommand& c, const std::vector<StabilityRow>& rows) {

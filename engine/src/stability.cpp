@@ -100,6 +100,33 @@ std::uint64_t trajectory_seed(std::uint64_t seed, int trajectory) {
   return splitmix(state) >> 1;  // the engine's seed option takes values up to 2^63 - 1
 }
 
+std::string stability_reference(const StabilityOptions& o) {
+  if (o.shape.empty()) return "method=exact";
+  // Ask the engine: exact refuses (unsupported) the shapes it has no exact overlap for.
+  Engine probe(CartesianGridSpec{});
+  std::int32_t id = 0;
+  try {
+    id = probe.add_shape(o.shape);
+  } catch (const Error& e) {
+    throw Error(e.status(), std::string("stability: --shape: ") + e.what());
+  }
+  probe.configure("method=exact orientation=none");
+  const double centre[3] = {0.5, 0.5, 0.5}, scale = 1;
+  ParticleView one;
+  one.n = 1;
+  one.centres = centre;
+  one.radii = &scale;
+  one.shape_ids = &id;
+  std::vector<double> field(static_cast<std::size_t>(probe.cell_count()));
+  try {
+    probe.compute(one, field);
+  } catch (const Error& e) {
+    if (e.status() != VFE_ERROR_UNSUPPORTED) throw;
+    return "method=pmm particle_grid=" + std::to_string(o.reference_grid);
+  }
+  return "method=exact";
+}
+
 StabilityReport stability_test(const StabilityOptions& in) {
   StabilityOptions o = in;
   if (!(o.chi > 0) || !std::isfinite(o.chi)) bad("stability: chi must be > 0 (got " + g6(o.chi) + ")");
@@ -125,8 +152,7 @@ StabilityReport stability_test(const StabilityOptions& in) {
   const std::string base =
       "threads=1 method=" + o.method + " " + o.engine_options + (shaped ? " orientation=given" : "");
   const std::string reference_options =
-      shaped ? "threads=1 method=pmm orientation=given particle_grid=" + std::to_string(o.reference_grid)
-             : "threads=1 method=exact";
+      "threads=1 " + (shaped ? stability_reference(o) + " orientation=given" : std::string("method=exact"));
   auto grid_option = [&](const std::string& g) { return has_grid ? " particle_grid=" + g : std::string(); };
   double shape_scale = 0;  // scale that gives the shape the volume-equivalent diameter o.diameter
   {
@@ -264,6 +290,7 @@ StabilityReport stability_test(const StabilityOptions& in) {
     rep.results.push_back(std::move(s));
   }
   rep.options = o;
+  rep.reference = shaped ? stability_reference(o) : "method=exact";
   return rep;
 }
 

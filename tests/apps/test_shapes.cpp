@@ -30,7 +30,7 @@ methods:
   - direct
   - pmm
   - {method: pmm, options: "particle_grid=27", label: pmm_27}
-  - exact
+  - gaussian
 threads: 1
 repeats: 1
 output: out
@@ -108,7 +108,7 @@ TEST(ShapedScene, GeneratedEllipsoidsEndToEnd) {
   test::write_text(dir / "ell.yaml", kGenerated);
   const SceneConfig cfg = load_config(dir / "ell.yaml");
   ASSERT_TRUE(cfg.shaped());
-  EXPECT_EQ(cfg.reference.method, "pmm");  // exact takes spheres only
+  EXPECT_EQ(cfg.reference.method, "pmm");  // the scenes' default reference for shapes
   EXPECT_EQ(cfg.reference.options, "particle_grid=4000");
 
   std::ostringstream table;
@@ -122,7 +122,7 @@ TEST(ShapedScene, GeneratedEllipsoidsEndToEnd) {
   int skipped = 0;
   for (const ResultRow& r : res.rows) {
     SCOPED_TRACE(r.label);
-    if (r.method == "exact") {
+    if (r.method == "gaussian") {  // a method for spheres only
       ++skipped;
       EXPECT_TRUE(r.skipped);
       EXPECT_NE(r.note.find("spheres only"), std::string::npos) << r.note;
@@ -139,7 +139,7 @@ TEST(ShapedScene, GeneratedEllipsoidsEndToEnd) {
   EXPECT_EQ(skipped, 1);
   const std::string csv = test::read_text(res.output / "results.csv");
   EXPECT_NE(csv.find("skipped"), std::string::npos);
-  EXPECT_NE(table.str().find("exact skipped"), std::string::npos) << table.str();
+  EXPECT_NE(table.str().find("gaussian skipped"), std::string::npos) << table.str();
   EXPECT_NE(test::read_text(res.output / "results.json").find("\"particles_file\": \"generated\""), std::string::npos);
 }
 

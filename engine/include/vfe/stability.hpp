@@ -1,6 +1,7 @@
 // Stability stress test of docs/design.md section 8: single spheres (or shaped particles) moving in
 // straight lines across cells in small steps; per step and cell the change of the void
-// fraction of a method is compared with the exact one (shapes: a fine pmm).
+// fraction of a method is compared with the exact one (shapes without an exact overlap,
+// superquadrics and clumps: a fine pmm).
 #pragma once
 
 #include <vfe/vfe.h>
@@ -35,8 +36,9 @@ struct StabilityOptions {
   int threads = 0;                ///< trajectories run in parallel; 0 = all cores
   /// A shaped particle instead of a sphere: an Engine::add_shape spec ("ellipsoid 1 0.6 0.4"),
   /// scaled so its volume-equivalent diameter is `diameter`, turned by a fixed random
-  /// quaternion per trajectory (orientation=given). Its reference is pmm with
-  /// reference_grid sub-elements instead of exact. Empty = a sphere.
+  /// quaternion per trajectory (orientation=given). Its reference is exact for ellipsoids
+  /// and triangle meshes, pmm with reference_grid sub-elements for superquadrics and
+  /// clumps (which exact refuses). Empty = a sphere.
   std::string shape;
   std::int64_t reference_grid = 20000;  ///< particle_grid of the shapes' reference pmm
 };
@@ -48,7 +50,7 @@ struct StabilityResult {
   std::int64_t grid_min = 0;      ///< sub-elements per particle the engine used (min, max)
   std::int64_t grid_max = 0;
   double max_jump = 0;            ///< max |deps| of the method
-  double max_jump_exact = 0;      ///< max |deps| of exact (shapes: the reference pmm) over the same steps
+  double max_jump_exact = 0;      ///< max |deps| of the reference (StabilityReport::reference) over the same steps
   double excess_jump = 0;         ///< J = max (|deps| - |deps_exact|)
   double mean_excess_jump = 0;    ///< mean over trajectories of each trajectory's J
   /// J in units of one sub-element's jump pi / (6 n chi^3) (n = grid_max); 0 without a grid.
@@ -67,11 +69,17 @@ struct StabilityReport {
   StabilityOptions options;       ///< as run (particle_grids filled in)
   std::int64_t steps = 0;         ///< steps per trajectory
   double flux_criterion = 0;      ///< U_s dt_f / dx: the deps the flux form allows (0 = off)
+  std::string reference;          ///< the reference's options: "method=exact ..." or "method=pmm ... particle_grid=N"
   std::vector<StabilityResult> results;  ///< one per particle grid, in the given order
 };
 
 /// Seed of trajectory i (also its template orientation: the engine's option seed=).
 VFE_API std::uint64_t trajectory_seed(std::uint64_t seed, int trajectory);
+
+/// The reference's method options for these options: "method=exact" for spheres and the
+/// shapes exact computes (ellipsoids, triangle meshes), "method=pmm particle_grid=N"
+/// (N = reference_grid) for the others. Throws Error for a bad shape spec.
+VFE_API std::string stability_reference(const StabilityOptions& options);
 
 /// Runs the stress test. Deterministic for given options (any thread count). Throws
 /// vfe::Error (invalid argument) for bad options, naming them.

@@ -19,6 +19,10 @@
 #include <span>
 #include <vector>
 
+namespace vfe::kernels {
+class Shape;
+}
+
 namespace vfe::detail {
 
 struct Deposit {
@@ -37,6 +41,7 @@ struct Scratch {
   std::vector<std::int64_t> candidate_cells;     // polyMesh exact: cells near the particle
   std::vector<Eigen::Vector3d> cell_points;      // polyMesh exact: one cell's boundary polygons
   std::vector<std::int32_t> cell_face_offsets, cell_face_points;
+  std::vector<Eigen::Vector3d> mapped_points;    // exact shapes: a cell's vertices in the ellipsoid's frame
   std::int64_t fast_path = 0, sub_elements = 0, outside_particles = 0;
   std::int64_t first_error = std::numeric_limits<std::int64_t>::max();
   std::int64_t grid_min = std::numeric_limits<std::int64_t>::max(), grid_max = 0;
@@ -128,6 +133,7 @@ struct Particle {
   /// and its centroid in template units (direct's point).
   const kernels::ParticleTemplate* shape_template = nullptr;
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  const kernels::Shape* shape = nullptr;  ///< the body itself (exact's overlaps), null for spheres
   bool shaped = false;
   /// The outside policy for this particle: the option's, except that outside=error lets a
   /// particle within outside_tolerance of the mesh go to the nearest cells.

@@ -21,23 +21,6 @@ bool periodic(const RectilinearContext& ctx, int d) { return (ctx.opts.periodic 
 
 double length(const RectilinearGrid& g, int d) { return g.nodes(d).back() - g.nodes(d).front(); }
 
-/// Node g of axis d, continued periodically past the ends (g may be < 0 or > n).
-double periodic_node(const RectilinearGrid& grid, int d, std::int64_t g) {
-  const std::int64_t n = grid.cells()[d];
-  const std::int64_t q = g >= 0 ? g / n : -((-g + n - 1) / n);
-  return grid.nodes(d)[static_cast<std::size_t>(g - q * n)] + double(q) * length(grid, d);
-}
-
-/// Cell coordinate of x along axis d, continued periodically (may be < 0 or >= n).
-std::int64_t periodic_axis_index(const RectilinearGrid& grid, int d, double x) {
-  const std::int64_t n = grid.cells()[d];
-  const double lo = grid.nodes(d).front(), len = length(grid, d);
-  const double turns = std::clamp(std::floor((x - lo) / len), -double(1LL << 40), double(1LL << 40));
-  std::int64_t i = grid.axis_index(d, x - turns * len);
-  i = std::clamp<std::int64_t>(i, 0, n - 1);  // round-off at the ends
-  return i + static_cast<std::int64_t>(turns) * n;
-}
-
 /// A window of cells around a particle: per axis the cells lo[d] .. lo[d] + m[d] - 1, where
 /// on a non-periodic axis -1 and n stand for everything beyond either side and on a periodic
 /// axis the cells continue past the ends (wrapped when deposited).
@@ -210,6 +193,22 @@ double cell_centre_axis(const RectilinearContext& ctx, int d, std::int64_t g) {
 }
 
 }  // namespace
+
+double periodic_node(const RectilinearGrid& grid, int d, std::int64_t g) {
+  const std::int64_t n = grid.cells()[d];
+  const std::int64_t q = g >= 0 ? g / n : -((-g + n - 1) / n);
+  return grid.nodes(d)[static_cast<std::size_t>(g - q * n)] + double(q) * length(grid, d);
+}
+
+std::int64_t periodic_axis_index(const RectilinearGrid& grid, int d, double x) {
+  const std::int64_t n = grid.cells()[d];
+  const double lo = grid.nodes(d).front(), len = length(grid, d);
+  const double turns = std::clamp(std::floor((x - lo) / len), -double(1LL << 40), double(1LL << 40));
+  std::int64_t i = grid.axis_index(d, x - turns * len);
+  i = std::clamp<std::int64_t>(i, 0, n - 1);  // round-off at the ends
+  return i + static_cast<std::int64_t>(turns) * n;
+}
+
 
 Eigen::Vector3d rectilinear_wrap(const RectilinearGrid& grid, unsigned periodic_axes, Eigen::Vector3d x) {
   for (int d = 0; d < 3; ++d) {

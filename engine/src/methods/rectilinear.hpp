@@ -22,6 +22,12 @@ void rectilinear_porous_cube(const RectilinearContext& ctx, Scratch& s, const Pa
 void rectilinear_big_particle(const RectilinearContext& ctx, Scratch& s, const Particle& p);
 void rectilinear_trilinear(const RectilinearContext& ctx, Scratch& s, const Particle& p);
 
+/// Node g of axis d, continued periodically past the ends (g may be < 0 or > n).
+double periodic_node(const RectilinearGrid& grid, int d, std::int64_t g);
+
+/// Cell coordinate of x along axis d, continued periodically (may be < 0 or >= n).
+std::int64_t periodic_axis_index(const RectilinearGrid& grid, int d, double x);
+
 /// A position moved into the grid along its periodic axes (others unchanged).
 Eigen::Vector3d rectilinear_wrap(const RectilinearGrid& grid, unsigned periodic, Eigen::Vector3d x);
 

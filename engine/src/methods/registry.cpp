@@ -1,5 +1,7 @@
 #include "methods/registry.hpp"
 
+#include "methods/shape_exact.hpp"
+
 namespace vfe::detail {
 
 namespace {
@@ -7,7 +9,9 @@ namespace {
 const MethodDrivers kMethods[] = {
     {Method::direct, direct_particle, rectilinear_direct, polymesh_direct, true, ""},
     {Method::pmm, pmm_particle, rectilinear_pmm, polymesh_pmm, true, ""},
-    {Method::exact, exact_particle, rectilinear_exact, polymesh_exact, false, ""},
+    // Spheres by their closed forms; ellipsoids and triangle meshes by their exact overlaps
+    // (methods/shape_exact.cpp); prepare_shapes refuses the other shapes (exact_shape_refusal).
+    {Method::exact, exact_any_particle, rectilinear_exact_any, polymesh_exact_any, true, ""},
     {Method::divided, divided_particle, rectilinear_divided, polymesh_divided, false, ""},
     {Method::gaussian, gaussian_particle, rectilinear_gaussian, polymesh_gaussian, false, ""},
     {Method::porous_cube, porous_cube_particle, rectilinear_porous_cube, polymesh_porous_cube, false, ""},
