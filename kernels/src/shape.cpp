@@ -457,28 +457,62 @@ std::pair<std::int64_t, std::int64_t> column_range(double a, double b, double lo
   return {std::int64_t(first), std::int64_t(last)};
 }
 
-/// Calls f(first_i, last_i, first_j, last_j, part) for each part of a clump or mesh shape.
+/// Calls f(first_i, last_i, first_j, last_j, part) for each part of a clump (its spheres)
+/// or a mesh (its triangles); one of the two is empty.
 template <class F>
-void for_each_part_columns(const Shape& shape, const SampleGrid& g, F&& f) {
+void for_each_part_columns(const std::vector<Eigen::Vector4d>& spheres, const TriangleMesh& mesh, const SampleGrid& g,
+                           F&& f) {
   const auto cover = [&](double x0, double x1, double y0, double y1, std::int64_t part) {
     const auto [i0, i1] = column_range(x0, x1, g.lo[0], g.hx, g.nx);
     const auto [j0, j1] = column_range(y0, y1, g.lo[1], g.hy, g.ny);
     if (i0 <= i1 && j0 <= j1) f(i0, i1, j0, j1, part);
   };
-  if (shape.kind() == Shape::Kind::clump) {
-    const auto& spheres = shape.spheres();
-    for (std::size_t s = 0; s < spheres.size(); ++s) {
-      const Eigen::Vector4d& q = spheres[s];
-      cover(q[0] - q[3], q[0] + q[3], q[1] - q[3], q[1] + q[3], std::int64_t(s));
-    }
-  } else {
-    const TriangleMesh& mesh = shape.mesh();
-    for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
-      const Eigen::Vector3i& tri = mesh.triangles[t];
-      const Eigen::Vector3d &a = mesh.vertices[tri[0]], &b = mesh.vertices[tri[1]], &c = mesh.vertices[tri[2]];
-      cover(std::min({a[0], b[0], c[0]}), std::max({a[0], b[0], c[0]}), std::min({a[1], b[1], c[1]}),
-            std::max({a[1], b[1], c[1]}), std::int64_t(t));
-    }
+  for (std::size_t s = 0; s < spheres.size(); ++s) {
+    const Eigen::Vector4d& q = spheres[s];
+    cover(q[0] - q[3], q[0] + q[3], q[1] - q[3], q[1] + q[3], std::int64_t(s));
+  }
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+    const Eigen::Vector3i& tri = mesh.triangles[t];
+    const Eigen::Vector3d &a = mesh.vertices[tri[0]], &b = mesh.vertices[tri[1]], &c = mesh.vertices[tri[2]];
+    cover(std::min({a[0], b[0], c[0]}), std::max({a[0], b[0], c[0]}), std::min({a[1], b[1], c[1]}),
+          std::max({a[1], b[1], c[1]}), std::int64_t(t));
+  }
+}
+
+void add_column_samples(const SampleGrid& g, double x, double y, const std::vector<std::pair<double, double>>& col,
+                        SampledBody& s);
+
+/// Samples of a clump's spheres or a mesh's triangles on grid g, walking only the columns
+/// a part covers, each with only the parts that cover it: the cost is bounded by the
+/// covered columns (check_sampling_cost), not by the bounding box or the parts.
+void sample_by_parts(const std::vector<Eigen::Vector4d>& spheres, const TriangleMesh& mesh, const SampleGrid& g,
+                     SampledBody& s) {
+  struct Cover {
+    std::int64_t column;
+    std::int64_t part;
+    bool operator<(const Cover& o) const { return column < o.column || (column == o.column && part < o.part); }
+  };
+  std::vector<Cover> covers;
+  for_each_part_columns(spheres, mesh, g, [&](std::int64_t i0, std::int64_t i1, std::int64_t j0, std::int64_t j1, std::int64_t part) {
+    for (std::int64_t j = j0; j <= j1; ++j)
+      for (std::int64_t i = i0; i <= i1; ++i) covers.push_back({i + g.nx * j, part});
+  });
+  std::sort(covers.begin(), covers.end());  // columns in the full walk's order (j, then i)
+  std::vector<std::int64_t> parts;
+  std::vector<double> z;
+  std::vector<std::pair<double, double>> col;
+  for (std::size_t b = 0; b < covers.size();) {
+    std::size_t e = b;
+    parts.clear();
+    while (e < covers.size() && covers[e].column == covers[b].column) parts.push_back(covers[e++].part);
+    const std::int64_t i = covers[b].column % g.nx, j = covers[b].column / g.nx;
+    const double x = g.lo[0] + (double(i) + 0.5) * g.hx, y = g.lo[1] + (double(j) + 0.5) * g.hy;
+    if (!spheres.empty())
+      clump_column(spheres, parts, x, y, col);
+    else
+      mesh_column(mesh, parts, x, y, col, z);
+    add_column_samples(g, x, y, col, s);
+    b = e;
   }
 }
 
@@ -502,9 +536,10 @@ double check_sampling_cost(const Shape& shape, std::size_t target) {
   const SampleGrid g = sample_grid(shape, target);
   double columns = 0;
   if (sampled_by_parts(shape))
-    for_each_part_columns(shape, g, [&](std::int64_t i0, std::int64_t i1, std::int64_t j0, std::int64_t j1, std::int64_t) {
-      columns += double(i1 - i0 + 1) * double(j1 - j0 + 1);
-    });
+    for_each_part_columns(shape.spheres(), shape.mesh(), g,
+                          [&](std::int64_t i0, std::int64_t i1, std::int64_t j0, std::int64_t j1, std::int64_t) {
+                            columns += double(i1 - i0 + 1) * double(j1 - j0 + 1);
+                          });
   else
     columns = double(g.nx) * double(g.ny);
   if (columns > kMaxSampleColumns) {
@@ -532,33 +567,7 @@ SampledBody sample_shape(const Shape& shape, std::size_t target) {
       }
     return s;
   }
-  // Only the columns a part covers, each with only the parts that cover it: the cost is
-  // bounded by the covered columns (checked above), not by the bounding box or the parts.
-  struct Cover {
-    std::int64_t column;
-    std::int64_t part;
-    bool operator<(const Cover& o) const { return column < o.column || (column == o.column && part < o.part); }
-  };
-  std::vector<Cover> covers;
-  for_each_part_columns(shape, g, [&](std::int64_t i0, std::int64_t i1, std::int64_t j0, std::int64_t j1, std::int64_t part) {
-    for (std::int64_t j = j0; j <= j1; ++j)
-      for (std::int64_t i = i0; i <= i1; ++i) covers.push_back({i + g.nx * j, part});
-  });
-  std::sort(covers.begin(), covers.end());  // columns in the full walk's order (j, then i)
-  std::vector<std::int64_t> parts;
-  std::vector<double> z;
-  for (std::size_t b = 0; b < covers.size();) {
-    std::size_t e = b;
-    parts.clear();
-    while (e < covers.size() && covers[e].column == covers[b].column) parts.push_back(covers[e++].part);
-    const std::int64_t i = covers[b].column % g.nx, j = covers[b].column / g.nx;
-    if (shape.kind() == Shape::Kind::clump)
-      clump_column(shape.spheres(), parts, x_of(i), y_of(j), col);
-    else
-      mesh_column(shape.mesh(), parts, x_of(i), y_of(j), col, z);
-    add_column_samples(g, x_of(i), y_of(j), col, s);
-    b = e;
-  }
+  sample_by_parts(shape.spheres(), shape.mesh(), g, s);
   return s;
 }
 
@@ -677,29 +686,28 @@ ParticleTemplate make_shape_template_variant(const Shape& shape, int n, std::uin
   const Eigen::Vector3i count = ((frame_box.max() - lo) / h).array().ceil().cast<int>().max(1);
   std::vector<Eigen::Vector3d> samples;
   samples.reserve(target + target / 4);
-  TriangleMesh turned;
-  if (shape.kind() == Shape::Kind::mesh) {
-    turned = shape.mesh();
+  if (shape.kind() == Shape::Kind::mesh || shape.kind() == Shape::Kind::clump) {
+    // The parts turned into the lattice's frame, sampled column by covered column.
+    TriangleMesh turned = shape.mesh();
     for (auto& v : turned.vertices) v = turn.transpose() * v;
-  }
-  std::vector<std::pair<double, double>> col;
-  for (int j = 0; j < count[1]; ++j) {
-    const double y = lo[1] + (j + 0.5) * h;
-    for (int i = 0; i < count[0]; ++i) {
-      const double x = lo[0] + (i + 0.5) * h;
-      if (shape.kind() == Shape::Kind::mesh) {
-        mesh_column(turned, x, y, col);
-        for (const auto& [zlo, zhi] : col) {
-          const long k0 = long(std::ceil((zlo - lo[2]) / h - 0.5)), k1 = long(std::floor((zhi - lo[2]) / h - 0.5));
-          for (long k = k0; k <= k1; ++k) samples.emplace_back(x, y, lo[2] + (double(k) + 0.5) * h);
+    std::vector<Eigen::Vector4d> spheres = shape.spheres();
+    for (auto& q : spheres) q.head<3>() = turn.transpose() * q.head<3>();
+    SampleGrid g;
+    g.lo = lo;
+    g.h = g.hx = g.hy = h;
+    g.nx = count[0];
+    g.ny = count[1];
+    SampledBody body;
+    body.points = std::move(samples);
+    sample_by_parts(spheres, turned, g, body);
+    samples = std::move(body.points);
+  } else {
+    for (int j = 0; j < count[1]; ++j)
+      for (int i = 0; i < count[0]; ++i)
+        for (int k = 0; k < count[2]; ++k) {
+          const Eigen::Vector3d q(lo[0] + (i + 0.5) * h, lo[1] + (j + 0.5) * h, lo[2] + (k + 0.5) * h);
+          if (shape.contains(turn * q)) samples.push_back(q);
         }
-        continue;
-      }
-      for (int k = 0; k < count[2]; ++k) {
-        const Eigen::Vector3d q(x, y, lo[2] + (k + 0.5) * h);
-        if (shape.contains(turn * q)) samples.push_back(q);
-      }
-    }
   }
   return partition_samples(shape, samples, n, &turn);
 }
