@@ -599,6 +599,8 @@ BenchOutcome run_bench(const BenchCommand& c) {
             log->info("{}, {} thread(s): warm-up took {:.1f} s; {} timed computes follow", method, t, warm_ms * 1e-3,
                       c.repeats);
           const vfe::Report rep = engine.last_report();
+          warn_overfull(*log, scene.name + " chi=" + printf_number("%.3g", chi), method, overfull_facts(engine),
+                        rep.particle_volume);
           const Timing timing = time_calls(c.repeats, [&] { engine.compute(view, field); });
 
           const bool have_memory = before_engine >= 0 && before_compute >= 0;

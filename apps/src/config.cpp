@@ -318,7 +318,7 @@ SceneConfig parse_root(const Ctx& ctx, const YAML::Node& root, const fs::path& b
   if (!root.IsMap()) ctx.fail(root, "the config must be a map of keys (name, particles, meshes, methods, ...)");
   check_keys(ctx, root,
              {"name", "shapes", "particles", "meshes", "chi", "methods", "reference", "threads", "repeats", "options",
-              "output", "vtk", "foam"},
+              "output", "vtk", "foam", "coupling"},
              "the config");
   SceneConfig c;
   c.source = ctx.source;
@@ -527,6 +527,13 @@ SceneConfig parse_root(const Ctx& ctx, const YAML::Node& root, const fs::path& b
       c.foam = root["foam"].as<bool>();
     } catch (const YAML::BadConversion&) {
       ctx.fail(root["foam"], "foam must be true or false");
+    }
+  }
+  if (root["coupling"]) {
+    try {
+      c.coupling = root["coupling"].as<bool>();
+    } catch (const YAML::BadConversion&) {
+      ctx.fail(root["coupling"], "coupling must be true or false");
     }
   }
   return c;

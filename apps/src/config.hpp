@@ -95,6 +95,9 @@ struct SceneConfig {
   std::filesystem::path output;          ///< resolved against the config's folder
   bool vtk = false;                      ///< write <mesh>.vti / <mesh>.vtu
   bool foam = false;                     ///< write OpenFOAM voidfraction fields (polyMesh meshes)
+  /// Runs with weights=1 and writes the coupling fields: the particle velocity Us per cell
+  /// (VTK, and OpenFOAM's Us beside voidfraction) and the per-particle weights as CSV.
+  bool coupling = false;
 
   /// True when the particles carry shapes (generated, or a dump with shape_by_type).
   bool shaped() const { return generate.has_value() || !shape_by_type.empty(); }

@@ -106,9 +106,13 @@ std::vector<FoamPatch> read_constraint_patches(const fs::path& folder) {
   return out;
 }
 
-void write_foam_scalar_field(const fs::path& file, const std::string& object, const std::string& location,
-                             std::span<const double> values, const std::vector<FoamPatch>& patches,
-                             const std::string& note) {
+namespace {
+
+/// One ASCII vol<Type>Field: components 1 (volScalarField) or 3 (volVectorField, "(x y z)").
+void write_foam_field(const fs::path& file, const std::string& object, const std::string& location,
+                      std::span<const double> values, int components, const std::string& dimensions,
+                      const std::vector<FoamPatch>& patches, const std::string& note) {
+  const bool vector = components == 3;
   std::error_code ec;
   if (file.has_parent_path()) fs::create_directories(file.parent_path(), ec);
   std::ostringstream o;
@@ -118,7 +122,7 @@ void write_foam_scalar_field(const fs::path& file, const std::string& object, co
     << "FoamFile\n{\n"
     << "    version     2.0;\n"
     << "    format      ascii;\n"
-    << "    class       volScalarField;\n"
+    << "    class       " << (vector ? "volVectorField" : "volScalarField") << ";\n"
     << "    location    \"" << location << "\";\n"
     << "    object      " << object << ";\n";
   if (!note.empty()) {
@@ -129,10 +133,15 @@ void write_foam_scalar_field(const fs::path& file, const std::string& object, co
   }
   o << "}\n"
     << "// * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * //\n\n"
-    << "dimensions      [0 0 0 0 0 0 0];\n\n"
-    << "internalField   nonuniform List<scalar>\n"
-    << values.size() << "\n(\n";
-  for (double v : values) o << (std::isfinite(v) ? round_trip(v) : std::string("0")) << '\n';
+    << "dimensions      " << dimensions << ";\n\n"
+    << "internalField   nonuniform List<" << (vector ? "vector" : "scalar") << ">\n"
+    << values.size() / static_cast<std::size_t>(components) << "\n(\n";
+  auto number = [](double v) { return std::isfinite(v) ? round_trip(v) : std::string("0"); };
+  for (std::size_t i = 0; i + components <= values.size(); i += static_cast<std::size_t>(components))
+    if (vector)
+      o << '(' << number(values[i]) << ' ' << number(values[i + 1]) << ' ' << number(values[i + 2]) << ")\n";
+    else
+      o << number(values[i]) << '\n';
   o << ")\n;\n\n"
     << "boundaryField\n{\n"
     << "    \".*\"\n    {\n        type            zeroGradient;\n    }\n";
@@ -146,6 +155,23 @@ void write_foam_scalar_field(const fs::path& file, const std::string& object, co
   out << o.str();
   out.flush();
   if (!out) throw std::runtime_error(file.string() + ": writing the OpenFOAM field file failed (disk full?)");
+}
+
+}  // namespace
+
+void write_foam_scalar_field(const fs::path& file, const std::string& object, const std::string& location,
+                             std::span<const double> values, const std::vector<FoamPatch>& patches,
+                             const std::string& note) {
+  write_foam_field(file, object, location, values, 1, "[0 0 0 0 0 0 0]", patches, note);
+}
+
+void write_foam_vector_field(const fs::path& file, const std::string& object, const std::string& location,
+                             std::span<const double> values, const std::string& dimensions,
+                             const std::vector<FoamPatch>& patches, const std::string& note) {
+  if (values.size() % 3 != 0)
+    throw std::runtime_error(file.string() + ": a vector field needs 3 values per cell (got " +
+                             std::to_string(values.size()) + ")");
+  write_foam_field(file, object, location, values, 3, dimensions, patches, note);
 }
 
 }  // namespace vfe::apps

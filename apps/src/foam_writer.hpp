@@ -31,4 +31,11 @@ void write_foam_scalar_field(const std::filesystem::path& file, const std::strin
                              const std::vector<FoamPatch>& constraint_patches = {},
                              const std::string& note = "");
 
+/// The same as an ASCII volVectorField: values holds x, y, z per cell; dimensions in
+/// OpenFOAM's notation (a velocity is "[0 1 -1 0 0 0 0]").
+void write_foam_vector_field(const std::filesystem::path& file, const std::string& object,
+                             const std::string& location, std::span<const double> values,
+                             const std::string& dimensions, const std::vector<FoamPatch>& constraint_patches = {},
+                             const std::string& note = "");
+
 }  // namespace vfe::apps

@@ -59,7 +59,7 @@ int main(int argc, char** argv) {
   std::string stab_step = "1/200";
   bool stab_quiet = false;
   CLI::App* stability = app.add_subcommand(
-      "stability", "Stability stress test (DESIGN section 5): spheres moving across cells in small steps");
+      "stability", "Stability stress test (docs/design.md section 8): spheres moving across cells in small steps");
   stability->add_option("--chi", stab.chi, "Cell size / particle diameter, a list (e.g. 0.5,1,2)")
       ->delimiter(',')
       ->capture_default_str();

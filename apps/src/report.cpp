@@ -21,6 +21,20 @@ struct Column {
 
 }  // namespace
 
+OverfullFacts overfull_facts(const vfe::Engine& engine) {
+  return {static_cast<std::int64_t>(engine.last_report_value("overfull_cells")),
+          engine.last_report_value("overfull_volume")};
+}
+
+void warn_overfull(spdlog::logger& log, const std::string& mesh, const std::string& method, const OverfullFacts& facts,
+                   double particle_volume) {
+  if (facts.cells <= 0) return;
+  log.warn("mesh '{}', method '{}': {} cell(s) hold more solid than their volume (excess {:.3e} of the particle "
+           "volume, void fraction below 0 there); to avoid it use a bed that lies inside the mesh, outside=drop, "
+           "method exact or a finer pmm, or set alpha_min",
+           mesh, method, facts.cells, particle_volume > 0 ? facts.volume / particle_volume : 0.0);
+}
+
 std::string grid_range(std::int64_t lo, std::int64_t hi) {
   return lo == hi ? std::to_string(lo) : std::to_string(lo) + "-" + std::to_string(hi);
 }
@@ -99,7 +113,8 @@ void write_json(const std::filesystem::path& file, const RunInfo& info, const st
       << ", \"cells_compared\": " << r.accuracy.cells_compared
       << ", \"particle_volume\": " << json_number(r.particle_volume) << ", \"deposited_volume\": " << json_number(r.deposited_volume)
       << ", \"dropped_volume\": " << json_number(r.dropped_volume) << ", \"clipped_volume\": " << json_number(r.clipped_volume)
-      << ", \"outside_particles\": " << r.outside_particles << "}";
+      << ", \"outside_particles\": " << r.outside_particles << ", \"overfull_cells\": " << r.overfull_cells
+      << ", \"overfull_volume\": " << json_number(r.overfull_volume) << "}";
   }
   o << "\n  ]\n}\n";
   std::ofstream out(file);
@@ -115,7 +130,7 @@ void write_csv(const std::filesystem::path& file, const RunInfo& info, const std
        "repeats,time_median_ms,time_min_ms,particles_per_s,sub_elements_per_s,sub_elements,"
        "fast_path_particles,particle_grid_min,particle_grid_max,theta,max_error,l1,volume_error,"
        "cells_compared,particle_volume,deposited_volume,dropped_volume,clipped_volume,outside_particles,"
-       "mesh_type,status,note\n";
+       "mesh_type,status,note,overfull_cells,overfull_volume\n";
   for (const auto& r : rows) {
     const bool poly = r.mesh_type == "polymesh";  // no nx, ny, nz
     o << csv_field(info.scene) << ',' << csv_field(r.mesh) << ',' << csv_field(r.label) << ','
@@ -129,7 +144,8 @@ void write_csv(const std::filesystem::path& file, const RunInfo& info, const std
       << csv_number(r.accuracy.max_error) << ',' << csv_number(r.accuracy.l1) << ',' << csv_number(r.accuracy.volume_error) << ','
       << r.accuracy.cells_compared << ',' << csv_number(r.particle_volume) << ',' << csv_number(r.deposited_volume) << ','
       << csv_number(r.dropped_volume) << ',' << csv_number(r.clipped_volume) << ',' << r.outside_particles << ','
-      << csv_field(r.mesh_type) << ',' << (r.skipped ? "skipped" : "ok") << ',' << csv_field(r.note) << '\n';
+      << csv_field(r.mesh_type) << ',' << (r.skipped ? "skipped" : "ok") << ',' << csv_field(r.note) << ','
+      << r.overfull_cells << ',' << csv_number(r.overfull_volume) << '\n';
   }
   std::ofstream out(file);
   check_written(out, file);

@@ -3,7 +3,10 @@
 
 #include "text_format.hpp"
 
+#include <vfe/engine.hpp>
 #include <vfe/measures.hpp>
+
+#include <spdlog/logger.h>
 
 #include <array>
 #include <cstdint>
@@ -47,6 +50,8 @@ struct ResultRow {
   double dropped_volume = 0;
   double clipped_volume = 0;
   std::int64_t outside_particles = 0;
+  std::int64_t overfull_cells = 0;  ///< cells holding more solid than their volume (eps < 0)
+  double overfull_volume = 0;       ///< their solid volume beyond the cell volume, summed
 };
 
 /// Facts of the whole run, written at the top of results.json.
@@ -63,6 +68,18 @@ struct RunInfo {
   std::string options;
   std::string version;
 };
+
+/// Cells of the last compute that hold more solid than their volume, and the excess.
+struct OverfullFacts {
+  std::int64_t cells = 0;
+  double volume = 0;
+};
+OverfullFacts overfull_facts(const vfe::Engine& engine);
+
+/// A warning line when some cells are overfull: mesh, method, the count, the excess as a
+/// fraction of the particle volume, and how to avoid it. Nothing when none are.
+void warn_overfull(spdlog::logger& log, const std::string& mesh, const std::string& method, const OverfullFacts& facts,
+                   double particle_volume);
 
 /// "a-b", or "a" when a == b.
 std::string grid_range(std::int64_t lo, std::int64_t hi);

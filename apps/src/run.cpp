@@ -17,6 +17,8 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
+#include <sstream>
 #include <limits>
 #include <optional>
 #include <ostream>
@@ -27,10 +29,50 @@ namespace vfe::apps {
 namespace {
 
 namespace fs = std::filesystem;
+constexpr const char* kVelocityDimensions = "[0 1 -1 0 0 0 0]";
 std::string g3(double v) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.3g", v);
   return buf;
+}
+
+/// Us per cell of the engine's last compute (weights=1): the deposit of velocity x volume over
+/// the deposit of volume, (0, 0, 0) where no solid is; 3 values per cell.
+std::vector<double> particle_velocity_field(const vfe::Engine& engine, const SceneParticles& frame,
+                                            std::size_t ncells) {
+  const std::vector<double> volume = frame.volumes();
+  std::vector<double> values(4 * volume.size());
+  for (std::size_t p = 0; p < volume.size(); ++p) {
+    for (std::size_t d = 0; d < 3; ++d) values[4 * p + d] = frame.velocities[3 * p + d] * volume[p];
+    values[4 * p + 3] = volume[p];
+  }
+  std::vector<double> deposited(4 * ncells);
+  engine.deposit(4, values, deposited);
+  std::vector<double> us(3 * ncells, 0.0);
+  for (std::size_t c = 0; c < ncells; ++c)
+    if (deposited[4 * c + 3] > 0)
+      for (std::size_t d = 0; d < 3; ++d) us[3 * c + d] = deposited[4 * c + d] / deposited[4 * c + 3];
+  return us;
+}
+
+/// The engine's per-particle weights of the last compute as CSV: particle (index in the
+/// frame), cell, fraction of the particle's volume in that cell.
+void write_weights_csv(const fs::path& file, const vfe::Engine& engine) {
+  const vfe::Engine::WeightsSize size = engine.weights_size();
+  std::vector<std::int64_t> offsets(static_cast<std::size_t>(size.particles + 1)), cells(static_cast<std::size_t>(size.entries));
+  std::vector<double> fractions(static_cast<std::size_t>(size.entries));
+  engine.weights(offsets, cells, fractions);
+  std::ostringstream o;
+  o << "particle,cell,fraction\n";
+  for (std::int64_t p = 0; p < size.particles; ++p)
+    for (std::int64_t k = offsets[static_cast<std::size_t>(p)]; k < offsets[static_cast<std::size_t>(p) + 1]; ++k)
+      o << p << ',' << cells[static_cast<std::size_t>(k)] << ',' << csv_number(fractions[static_cast<std::size_t>(k)])
+        << '\n';
+  std::ofstream out(file);
+  check_written(out, file);
+  out << o.str();
+  out.flush();
+  check_written(out, file);
 }
 
 int resolve_threads(const std::string& value) {
@@ -66,7 +108,12 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
   const bool foam = opt.foam || cfg.foam;
   const fs::path out_dir = opt.output.value_or(cfg.output);
 
-  std::string global = scene_options(cfg, opt.threads, "", source);
+  // The coupling fields need the weights of each compute.
+  auto run_options = [&](const std::string& particle_options) {
+    const std::string o = scene_options(cfg, opt.threads, particle_options, source);
+    return cfg.coupling ? merge_options({o, "weights=1"}) : o;
+  };
+  std::string global = run_options("");
 
   // The methods to time (one per setting), and the reference (timed too when it is one of them).
   std::vector<MethodSpec> methods = expand_settings(cfg.methods);
@@ -115,10 +162,15 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
             frame.shaped() ? "shaped " : "", frame.timestep, frame.shaped() ? "volume-equivalent " : "", g3(mean_d),
             cfg.generate ? "generated" : "read", ms_since(t0));
   if (!frame.options.empty()) {
-    global = scene_options(cfg, opt.threads, frame.options, source);
+    global = run_options(frame.options);
     log->info("particle options: {} (the config's options win)", frame.options);
   }
   const vfe::ParticleView particles = frame.view();
+  if (cfg.coupling && frame.n > 0 && frame.velocities.empty())
+    throw ConfigError(source + ": coupling: true needs the particles' velocities; " +
+                      (cfg.generate ? std::string("generated particles have none")
+                                    : "the dump " + frame.source_name + " has no vx vy vz columns") +
+                      "; dump them (or remove coupling)");
 
   std::error_code ec;
   fs::create_directories(out_dir, ec);
@@ -197,9 +249,21 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
       std::string label;
       std::vector<double> eps, solid;
       std::string options;
+      std::vector<double> us;  ///< coupling: Us, 3 per cell
     };
     std::vector<Field> fields;
     const bool keep_fields = vtk || foam_here;
+    /// After a compute: with coupling, the weights CSV, and the field to keep.
+    auto keep_field = [&](const std::string& label, const std::vector<double>& field, const std::string& opts) {
+      std::vector<double> us;
+      if (cfg.coupling) {
+        const fs::path weights_file = out_dir / (mesh.name + "_weights_" + label + ".csv");
+        write_weights_csv(weights_file, *engine);
+        log->info("  {}: wrote {}", label, weights_file.string());
+        if (keep_fields) us = particle_velocity_field(*engine, frame, ncells);
+      }
+      if (keep_fields) fields.push_back({label, eps, field, opts, std::move(us)});
+    };
 
     auto fill_row = [&](ResultRow& row, const MethodSpec& m, const std::string& opts) {
       row.mesh = mesh.name;
@@ -223,6 +287,7 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
       row.time_median_ms = row.time_min_ms = row.particles_per_s = row.sub_elements_per_s = nan;
       row.accuracy.theta = row.accuracy.max_error = row.accuracy.l1 = row.accuracy.volume_error = nan;
       row.particle_volume = row.deposited_volume = row.dropped_volume = row.clipped_volume = nan;
+      row.overfull_volume = nan;
       return row;
     };
     /// Row of a finished compute: timings, report, and errors against the reference if any.
@@ -254,6 +319,10 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
       row.dropped_volume = rep.dropped_volume;
       row.clipped_volume = rep.clipped_volume;
       row.outside_particles = rep.outside_particles;
+      const OverfullFacts overfull = overfull_facts(*engine);
+      row.overfull_cells = overfull.cells;
+      row.overfull_volume = overfull.volume;
+      warn_overfull(*log, mesh.name, m.label, overfull, rep.particle_volume);
       const std::string outside = engine->option("outside");
       if (rep.outside_particles > 0 && !outside_warned) {
         outside_warned = true;
@@ -294,7 +363,7 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
           engine->void_fraction(eps);
           reference_row = measured_row(reference, opts, times, solid);
           reference_row->is_reference = true;
-          if (keep_fields) fields.push_back({reference.label, eps, ref, opts});
+          keep_field(reference.label, ref, opts);
         }
       } catch (const vfe::Error& e) {
         if (!unsupported(e)) throw vfe::Error(e.status(), mesh_where + ", reference '" + reference.label + "': " + e.what());
@@ -335,7 +404,7 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
         row.is_reference = m.label == reference.label;
         log->info("  {}: {:.3f} ms per compute (median of {}), theta {:.3e}", m.label, row.time_median_ms, repeats,
                   row.accuracy.theta);
-        if (keep_fields) fields.push_back({m.label, eps, solid, opts});
+        keep_field(m.label, solid, opts);
         mesh_rows.push_back(std::move(row));
       });
     }
@@ -367,6 +436,7 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
       for (const Field& f : fields) {
         arrays.push_back({"voidfraction_" + f.label, f.eps});
         arrays.push_back({"solid_volume_" + f.label, f.solid});
+        if (!f.us.empty()) arrays.push_back({"Us_" + f.label, f.us, 3});
       }
       if (engine->is_polymesh()) {
         const fs::path f = out_dir / (mesh.name + ".vtu");
@@ -387,6 +457,9 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
       for (const Field& f : fields) {
         write_foam_scalar_field(time_dir / ("voidfraction_" + f.label), "voidfraction_" + f.label, "0", f.eps, patches,
                                 f.options);
+        if (!f.us.empty())
+          write_foam_vector_field(time_dir / ("Us_" + f.label), "Us_" + f.label, "0", f.us, kVelocityDimensions,
+                                  patches, f.options);
         if (f.label == default_label) plain = &f;
       }
       if (!plain)  // the default method was skipped here: the first listed method that ran
@@ -400,6 +473,9 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
       if (plain) {
         write_foam_scalar_field(time_dir / "voidfraction", "voidfraction", "0", plain->eps, patches,
                                 plain->label + ": " + plain->options);
+        if (!plain->us.empty())
+          write_foam_vector_field(time_dir / "Us", "Us", "0", plain->us, kVelocityDimensions, patches,
+                                  plain->label + ": " + plain->options);
         log->info("wrote {} (voidfraction from {}, and voidfraction_<method> for every method)", time_dir.string(),
                   plain->label);
       } else {

@@ -26,13 +26,19 @@ vfe::ParticleView SceneParticles::view() const {
   return v;
 }
 
-double SceneParticles::total_volume() const {
-  double s = 0;
+std::vector<double> SceneParticles::volumes() const {
+  std::vector<double> v(radii.size());
   for (std::size_t i = 0; i < radii.size(); ++i) {
     const double r = radii[i];
-    s += (shape_ids.empty() ? 4.0 / 3.0 * std::numbers::pi : shape_volumes[static_cast<std::size_t>(shape_ids[i])]) *
-         r * r * r;
+    v[i] = (shape_ids.empty() ? 4.0 / 3.0 * std::numbers::pi : shape_volumes[static_cast<std::size_t>(shape_ids[i])]) *
+           r * r * r;
   }
+  return v;
+}
+
+double SceneParticles::total_volume() const {
+  double s = 0;
+  for (double v : volumes()) s += v;
   return s;
 }
 
@@ -108,6 +114,7 @@ SceneParticles load_particles(const SceneConfig& c) {
   p.centres = std::move(f.centres);
   p.radii = std::move(f.radii);
   p.orientations = std::move(f.orientations);
+  p.velocities = std::move(f.velocities);
   if (c.shape_by_type.empty()) return p;
 
   const bool by_shape = !f.shapes.empty();

@@ -21,6 +21,7 @@ struct SceneParticles {
   std::vector<double> centres;                  ///< 3n
   std::vector<double> radii;                    ///< n: radii, or the shapes' scales when shaped
   std::vector<double> orientations;             ///< 4n quaternions (w, x, y, z), or empty
+  std::vector<double> velocities;               ///< 3n (the dump's vx vy vz), or empty
   std::vector<std::int32_t> shape_ids;          ///< n indices into the config's shapes, or empty (spheres)
   std::vector<double> shape_volumes;            ///< per shape of the config, at scale 1
   /// Engine options the particles need (orientation=given with quaternions, orientation=none
@@ -32,6 +33,8 @@ struct SceneParticles {
   vfe::ParticleView view() const;
   /// Solid volume: spheres 4/3 pi r^3, shapes volume * scale^3.
   double total_volume() const;
+  /// Solid volume of each particle (n).
+  std::vector<double> volumes() const;
   /// Mean volume-equivalent diameter (the diameter for spheres); 0 when empty.
   double mean_diameter() const;
 };

@@ -1,4 +1,4 @@
-// `vfe stability`: the stability stress test of DESIGN section 5 for any method, and the
+// `vfe stability`: the stability stress test of docs/design.md section 8 for any method, and the
 // sweep over chi and particle grids that finds the empirical n_min(chi).
 #pragma once
 

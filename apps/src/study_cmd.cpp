@@ -332,6 +332,7 @@ StudyResult run_study(const SceneConfig& cfg, const StudyOptions& opt) {
       with_mesh_context(mesh, p.family + " " + setting_text(p), [&] { engine.compute(particles, solid); });
       const double warm_up_ms = ms_since(t0);
       const vfe::Report rep = engine.last_report();
+      warn_overfull(*log, mesh.name, p.family + " " + setting_text(p), overfull_facts(engine), particle_volume);
       p.accuracy = vfe::compare_fields(solid, ref, cell_volume, particle_volume);
       log->info("  {} {}: L1 {:.3e}, warm-up {:.1f} ms", p.family, setting_text(p), p.accuracy.l1, warm_up_ms);
       p.fast_path_particles = rep.fast_path_particles;

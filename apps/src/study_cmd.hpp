@@ -1,6 +1,6 @@
 // `vfe study`: run time against error of every method and setting of a scene at several
 // cell sizes: the time per compute (median of repeats, methods timed in turn), the errors
-// against the reference (DESIGN section 5), the Pareto front per grid, and how a base family
+// against the reference (docs/design.md section 8), the Pareto front per grid, and how a base family
 // (pmm) compares with every other point at equal error and at equal cost.
 #pragma once
 

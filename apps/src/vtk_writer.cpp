@@ -87,9 +87,10 @@ void write_vti(const std::filesystem::path& file, const vfe::CartesianGridSpec& 
                const std::vector<CellArray>& arrays, VtkEncoding encoding) {
   const std::int64_t n = g.cells[0] * g.cells[1] * g.cells[2];
   for (const auto& a : arrays)
-    if (static_cast<std::int64_t>(a.values.size()) != n)
+    if (static_cast<std::int64_t>(a.values.size()) != n * a.components)
       throw std::runtime_error("write_vti: array '" + a.name + "' has " + std::to_string(a.values.size()) +
-                               " values, the grid has " + std::to_string(n) + " cells");
+                               " values, the grid has " + std::to_string(n) + " cells of " +
+                               std::to_string(a.components) + " component(s)");
   const bool little = std::endian::native == std::endian::little;
   std::ostringstream o;
   const std::string extent =
@@ -103,7 +104,7 @@ void write_vti(const std::filesystem::path& file, const vfe::CartesianGridSpec& 
   o << "    <Piece Extent=\"" << extent << "\">\n";
   o << "      <PointData>\n      </PointData>\n";
   o << "      <CellData" << (arrays.empty() ? "" : " Scalars=\"" + arrays.front().name + "\"") << ">\n";
-  for (const auto& a : arrays) data_array<double>(o, a.name, a.values, 1, encoding);
+  for (const auto& a : arrays) data_array<double>(o, a.name, a.values, a.components, encoding);
   o << "      </CellData>\n    </Piece>\n  </ImageData>\n</VTKFile>\n";
   write_text_file(file, o.str());
 }
@@ -136,9 +137,10 @@ void write_vtu(const std::filesystem::path& file, const vfe::Engine::PolyTopolog
   for (std::int64_t f : t.cell_faces)
     if (f < 0 || f >= nfaces) throw bad("a cell refers to face " + std::to_string(f) + " of " + std::to_string(nfaces));
   for (const auto& a : arrays)
-    if (static_cast<std::int64_t>(a.values.size()) != ncells)
+    if (static_cast<std::int64_t>(a.values.size()) != ncells * a.components)
       throw std::runtime_error("write_vtu: array '" + a.name + "' has " + std::to_string(a.values.size()) +
-                               " values, the mesh has " + std::to_string(ncells) + " cells");
+                               " values, the mesh has " + std::to_string(ncells) + " cells of " +
+                               std::to_string(a.components) + " component(s)");
 
   // Each face's area vector (Newell) and mean point, to turn it outwards for each cell.
   std::vector<std::array<double, 6>> face_geo(static_cast<std::size_t>(nfaces));
@@ -192,7 +194,7 @@ void write_vtu(const std::filesystem::path& file, const vfe::Engine::PolyTopolog
   o << "    <Piece NumberOfPoints=\"" << npoints << "\" NumberOfCells=\"" << ncells << "\">\n";
   o << "      <PointData>\n      </PointData>\n";
   o << "      <CellData" << (arrays.empty() ? "" : " Scalars=\"" + arrays.front().name + "\"") << ">\n";
-  for (const auto& a : arrays) data_array<double>(o, a.name, a.values, 1, encoding);
+  for (const auto& a : arrays) data_array<double>(o, a.name, a.values, a.components, encoding);
   o << "      </CellData>\n";
   o << "      <Points>\n";
   data_array<double>(o, "Points", t.points, 3, encoding);

@@ -13,7 +13,8 @@ namespace vfe::apps {
 
 struct CellArray {
   std::string name;
-  std::vector<double> values;  ///< one per cell, cell (i, j, k) at i + nx*(j + ny*k) on a grid
+  std::vector<double> values;  ///< components per cell, cell (i, j, k) at i + nx*(j + ny*k) on a grid
+  int components = 1;          ///< 3 for a vector field (x, y, z of a cell together)
 };
 
 enum class VtkEncoding { ascii, base64 };

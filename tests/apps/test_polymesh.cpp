@@ -542,3 +542,91 @@ TEST(PolyMeshStudy, EveryMeshKindWithChiFromTheMeanCubeRoot) {
                         "skipped: "})
     EXPECT_NE(t.find(s), std::string::npos) << s << "\n" << t;
 }
+
+// coupling: true with every particle moving at the same velocity: Us is that velocity in every
+// cell holding solid and 0 elsewhere (OpenFOAM's volVectorField Us and Us_<method>), and each
+// particle's weights in <mesh>_weights_<method>.csv sum to 1.
+TEST(PolyMeshRun, CouplingFieldsOfAUniformVelocity) {
+  const double velocity[3] = {1.5, -2.0, 0.25};
+  std::istringstream plain(tiny_dump(12, 11));
+  std::ostringstream moving;
+  moving.precision(12);
+  std::string line;
+  bool atoms = false;
+  while (std::getline(plain, line)) {
+    if (line.rfind("ITEM: ATOMS", 0) == 0) {
+      moving << line << " vx vy vz\n";
+      atoms = true;
+    } else {
+      moving << line << (atoms ? " 1.5 -2 0.25\n" : "\n");
+    }
+  }
+  test::TempDir dir;
+  fs::create_directories(dir / "data");
+  test::write_text(dir / "data" / "moving.dump", moving.str());
+  test::write_text(dir / "coupling.yaml", "name: coupling\nparticles:\n  file: data/moving.dump\nmeshes:\n"
+                                          "  - {name: box, type: polymesh, path: " +
+                                              kBoxCase.string() +
+                                              "}\nmethods: [pmm, exact]\nreference: exact\nthreads: 1\n"
+                                              "repeats: 1\noutput: out\nfoam: true\ncoupling: true\n");
+  RunOptions opt;
+  opt.vtk = true;
+  const RunResult res = run_scene(load_config(dir / "coupling.yaml"), opt);
+  const fs::path time_dir = res.output / "box" / "0";
+  EXPECT_NE(test::read_text(res.output / "box.vtu").find("Name=\"Us_exact\" NumberOfComponents=\"3\""),
+            std::string::npos);
+
+  for (const std::string label : {"pmm", "exact"}) {
+    SCOPED_TRACE(label);
+    const std::string us_text = test::read_text(time_dir / ("Us_" + label));
+    EXPECT_NE(us_text.find("class       volVectorField;"), std::string::npos);
+    EXPECT_NE(us_text.find("dimensions      [0 1 -1 0 0 0 0];"), std::string::npos);
+    const auto list = us_text.find("nonuniform List<vector>");
+    ASSERT_NE(list, std::string::npos);
+    std::istringstream vs(us_text.substr(list + 23));
+    std::size_t count = 0;
+    std::string tok;
+    vs >> count >> tok;
+    ASSERT_EQ(tok, "(");
+    const FoamField eps = parse_foam_field(time_dir / ("voidfraction_" + label));
+    ASSERT_EQ(count, eps.values.size());
+    std::size_t solid_cells = 0;
+    for (std::size_t c = 0; c < count; ++c) {
+      char open = 0, close = 0;
+      double u[3];
+      vs >> open >> u[0] >> u[1] >> u[2] >> close;
+      ASSERT_EQ(open, '(');
+      ASSERT_EQ(close, ')');
+      const bool solid = eps.values[c] < 1.0;
+      solid_cells += solid;
+      for (int d = 0; d < 3; ++d)
+        EXPECT_NEAR(u[d], solid ? velocity[d] : 0.0, 1e-12) << "cell " << c << " component " << d;
+    }
+    EXPECT_GT(solid_cells, 12u);  // the corner particle alone spans eight cells
+
+    std::map<std::int64_t, double> sums;
+    for (const auto& row : read_csv(res.output / ("box_weights_" + label + ".csv"))) {
+      const std::int64_t cell = std::stoll(row.at("cell"));
+      EXPECT_GE(cell, 0);
+      EXPECT_LT(cell, static_cast<std::int64_t>(count));
+      sums[std::stoll(row.at("particle"))] += std::stod(row.at("fraction"));
+    }
+    ASSERT_EQ(sums.size(), 12u);
+    for (const auto& [particle, sum] : sums) EXPECT_NEAR(sum, 1.0, 1e-12) << "particle " << particle;
+  }
+  // The plain Us beside voidfraction comes from the default method (pmm).
+  EXPECT_EQ(test::read_text(time_dir / "Us").substr(test::read_text(time_dir / "Us").find("internalField")),
+            test::read_text(time_dir / "Us_pmm").substr(test::read_text(time_dir / "Us_pmm").find("internalField")));
+}
+
+// coupling: true on a dump without velocities is refused, naming what is missing.
+TEST(PolyMeshRun, CouplingNeedsVelocities) {
+  PolyScene scene("  - {name: box, type: polymesh, path: " + kBoxCase.string() + "}\n");
+  test::write_text(scene.config, test::read_text(scene.config) + "coupling: true\n");
+  try {
+    run_scene(load_config(scene.config), RunOptions{});
+    FAIL() << "expected a ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("has no vx vy vz columns"), std::string::npos) << e.what();
+  }
+}

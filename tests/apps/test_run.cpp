@@ -6,6 +6,7 @@
 #include "test_util.hpp"
 
 #include <gtest/gtest.h>
+#include <spdlog/sinks/ostream_sink.h>
 
 #include <cstdio>
 #include <map>
@@ -195,4 +196,56 @@ TEST(RunDriver, MissingParticleFileIsNamed) {
   } catch (const DumpError& e) {
     EXPECT_NE(std::string(e.what()).find("none.dump.gz"), std::string::npos) << e.what();
   }
+}
+
+// A sphere of radius 0.7 mm (1.437 mm^3) centred in a 1 mm cell: direct puts all of it into
+// the 1 mm^3 cell, overfull by 0.437 mm^3; exact gives the cell only the part inside it and
+// overfills nothing. The run warns and reports both facts per row.
+TEST(RunDriver, WarnsAboutOverfullCells) {
+  test::TempDir dir;
+  fs::create_directories(dir / "data");
+  test::write_text(dir / "data" / "pair.dump",
+                   "ITEM: TIMESTEP\n0\nITEM: NUMBER OF ATOMS\n1\nITEM: BOX BOUNDS ff ff ff\n0 0.004\n0 0.004\n"
+                   "0 0.004\nITEM: ATOMS id type x y z radius\n1 1 0.0015 0.0015 0.0015 0.0007\n");
+  test::write_text(dir / "pair.yaml", R"(name: pair
+particles:
+  file: data/pair.dump
+meshes:
+  - name: grid
+    origin: [0, 0, 0]
+    spacing: 0.001
+    cells: [4, 4, 4]
+methods: [direct, exact]
+reference: exact
+threads: 1
+repeats: 1
+output: out
+)");
+  std::ostringstream log_text;
+  RunOptions opt;
+  opt.logger = std::make_shared<spdlog::logger>("test", std::make_shared<spdlog::sinks::ostream_sink_mt>(log_text));
+  opt.logger->set_level(spdlog::level::warn);
+  const RunResult res = run_scene(load_config(dir / "pair.yaml"), opt);
+
+  const double vp = 4.0 / 3.0 * 3.14159265358979 * 0.0007 * 0.0007 * 0.0007;
+  const double excess = vp - 1e-9;
+  std::map<std::string, std::map<std::string, std::string>> by_method;
+  for (const auto& row : read_csv(res.output / "results.csv")) by_method[row.at("method")] = row;
+  ASSERT_EQ(by_method.size(), 2u);
+  EXPECT_EQ(by_method["direct"].at("overfull_cells"), "1");
+  EXPECT_NEAR(std::stod(by_method["direct"].at("overfull_volume")), excess, 1e-12 * excess);
+  EXPECT_EQ(by_method["exact"].at("overfull_cells"), "0");
+  EXPECT_EQ(std::stod(by_method["exact"].at("overfull_volume")), 0.0);
+  const std::string json = test::read_text(res.output / "results.json");
+  EXPECT_NE(json.find("\"overfull_cells\": 1"), std::string::npos);
+
+  const std::string warned = log_text.str();
+  char fraction[32];
+  std::snprintf(fraction, sizeof fraction, "%.3e", excess / vp);
+  EXPECT_NE(warned.find("mesh 'grid', method 'direct': 1 cell(s) hold more solid than their volume"),
+            std::string::npos)
+      << warned;
+  EXPECT_NE(warned.find(std::string("excess ") + fraction), std::string::npos) << warned;
+  EXPECT_NE(warned.find("outside=drop"), std::string::npos);
+  EXPECT_EQ(warned.find("method 'exact'"), std::string::npos) << warned;
 }
