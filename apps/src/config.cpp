@@ -618,6 +618,14 @@ vfe::CartesianGridSpec resolve_grid(const MeshSpec& m, const std::array<double, 
     } else {
       const double h = (*m.spacing)[d];
       const double ratio = len / h;
+      // The cell count must be an integer the grid can have before it is converted to one.
+      constexpr double kMaxCellsPerAxis = 1099511627776.0;  // 2^40, the grid's limit on all cells
+      if (!(h > 0) || !(ratio <= kMaxCellsPerAxis)) {
+        std::ostringstream msg;
+        msg << where << ": spacing " << h << " in " << "xyz"[d] << " over the box length " << len << " gives " << ratio
+            << " cells; give a spacing > 0 that makes at most 2^40 cells (per axis and in all)";
+        throw ConfigError(msg.str());
+      }
       const double r = std::round(ratio);
       if (r >= 1 && std::abs(ratio - r) <= 1e-6 * std::max(1.0, r)) {
         g.cells[d] = static_cast<std::int64_t>(r);

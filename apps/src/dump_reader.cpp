@@ -140,6 +140,14 @@ struct DumpReader::Impl {
         fail(line_no + 1, std::string("the file ends in the middle of this line (") + (msg ? msg : "read error") +
                               "); the file is truncated or damaged: re-write it, or for a gzip file "
                               "check it with `gzip -t`");
+      // LIGGGHTS ends every line with a blank, LAMMPS with a line end: a last line that
+      // stops right after a character was cut inside its last value (a dump still being
+      // written), whose digits may be missing.
+      const char last = line.empty() ? ' ' : line.back();
+      if (last != ' ' && last != '\t' && last != '\r')
+        fail(line_no + 1, "the file ends inside this line, right after '" + line.substr(line.size() - std::min<std::size_t>(line.size(), 20)) +
+                              "' (no line end): its last value may be cut short, as in a dump still "
+                              "being written; wait until the dump is complete, or end the line if it is");
     }
     ++line_no;
     while (!line.empty() && (line.back() == '\n' || line.back() == '\r')) line.pop_back();
@@ -365,7 +373,7 @@ bool DumpReader::next(DumpFrame& frame) {
   frame.columns = cols;
   frame.first_line = h.first_line;
   const auto n = static_cast<std::size_t>(h.n);
-  const std::size_t cap = std::min<std::size_t>(n, std::size_t{1} << 24);  // n may be bogus
+  const std::size_t cap = std::min<std::size_t>(n, std::size_t{1} << 20);  // n may be bogus: grow past it as lines come
   frame.centres.reserve(3 * cap);
   frame.radii.reserve(cap);
   if (has_quat) frame.orientations.reserve(4 * cap);

@@ -54,7 +54,9 @@ struct FrameSelector {
   std::int64_t index = -1;
 };
 
-/// Streaming reader: one frame at a time, in file order.
+/// Streaming reader: one frame at a time, in file order. Numbers are parsed whole; a frame
+/// with fewer atom lines than its NUMBER OF ATOMS, or a last line that ends without a line
+/// end right after a value (cut while the dump was being written), is an error.
 class DumpReader {
  public:
   /// Opens the file (plain or gzip); throws DumpError if it cannot be read.

@@ -26,6 +26,18 @@ CartesianGrid::CartesianGrid(const CartesianGridSpec& spec) {
     inv_h_[d] = 1.0 / spec.spacing[d];
     n_[d] = spec.cells[d];
   }
+  // The cell volume, its inverse and the grid's far corner must be ordinary doubles: a
+  // spacing such as 1e-200 gives a volume of 0 (void fraction NaN), 5e-324 an inverse of inf.
+  const double volume = cell_volume();
+  const Eigen::Vector3d far_corner = upper();
+  if (!std::isnormal(volume) || !std::isnormal(1.0 / volume) || !inv_h_.allFinite() || !far_corner.allFinite()) {
+    std::ostringstream msg;
+    msg << "spacing " << h_[0] << " x " << h_[1] << " x " << h_[2] << " gives a cell volume of " << volume
+        << " and a far corner of (" << far_corner.transpose() << "), which cannot be computed in doubles (cell volume "
+        << "and its inverse must lie within " << std::numeric_limits<double>::min() << " .. "
+        << std::numeric_limits<double>::max() << "); give the grid in units where cells are nearer to 1 (e.g. mm or m)";
+    throw Error(VFE_ERROR_INVALID_ARGUMENT, msg.str());
+  }
   // Cell indices must fit int64 and the field must be allocatable: 2^40 cells is far
   // beyond any machine this runs on and keeps i + nx*(j + ny*k) from overflowing.
   const double total = double(n_[0]) * double(n_[1]) * double(n_[2]);

@@ -13,7 +13,8 @@ namespace vfe {
 
 class CartesianGrid {
  public:
-  /// Validates the spec (finite origin, spacing > 0, cells >= 1); throws Error.
+  /// Validates the spec (finite origin, spacing > 0, cells >= 1, at most 2^40 cells, a
+  /// cell volume whose value and inverse are normal doubles, a finite far corner); throws Error.
   explicit CartesianGrid(const CartesianGridSpec& spec);
 
   std::int64_t cell_count() const { return n_[0] * n_[1] * n_[2]; }

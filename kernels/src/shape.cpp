@@ -1,6 +1,7 @@
 #include <vfe/kernels/shape.hpp>
 
 #include <algorithm>
+#include <cstdint>
 #include <cmath>
 #include <functional>
 #include <map>
@@ -43,25 +44,56 @@ Vec4 integrate(const std::function<Vec4(double)>& f, double a, double b, double 
   return simpson(f, a, b, fa, fm, fb, (b - a) / 6 * (fa + 4 * fm + fb), tol, 40);
 }
 
-void merge_intervals(std::vector<std::pair<double, double>>& v) {
-  std::sort(v.begin(), v.end());
-  std::size_t w = 0;
-  for (std::size_t i = 0; i < v.size(); ++i) {
-    if (w > 0 && v[i].first <= v[w - 1].second)
-      v[w - 1].second = std::max(v[w - 1].second, v[i].second);
-    else
-      v[w++] = v[i];
-  }
-  v.resize(w);
+/// Bounding box of the vertices the triangles use (a stray unused vertex would otherwise
+/// stretch the box, and with it the sampling cost, without bound).
+Eigen::AlignedBox3d used_vertex_bounds(const TriangleMesh& mesh) {
+  Eigen::AlignedBox3d box;
+  for (const auto& t : mesh.triangles)
+    for (int k = 0; k < 3; ++k) box.extend(mesh.vertices[static_cast<std::size_t>(t[k])]);
+  return box;
 }
 
-/// The z-intervals where the vertical line through (x, y) lies inside the closed mesh.
-void mesh_column(const TriangleMesh& mesh, double x, double y, std::vector<std::pair<double, double>>& out) {
+void merge_intervals(std::vector<std::pair<double, double>>& v);
+
+/// The indices 0 .. n-1 as a range (every part of a shape).
+struct AllParts {
+  std::size_t n;
+  struct Iterator {
+    std::size_t i;
+    std::size_t operator*() const { return i; }
+    Iterator& operator++() {
+      ++i;
+      return *this;
+    }
+    bool operator!=(const Iterator& o) const { return i != o.i; }
+  };
+  Iterator begin() const { return {0}; }
+  Iterator end() const { return {n}; }
+};
+
+/// Column intervals of a clump from the spheres `parts` (indices into spheres).
+template <class Parts>
+void clump_column(const std::vector<Eigen::Vector4d>& spheres, const Parts& parts, double x, double y,
+                  std::vector<std::pair<double, double>>& out) {
   out.clear();
-  // Crossings of the vertical line with the triangles, paired in order (a closed
-  // surface is crossed an even number of times).
-  std::vector<double> z;
-  for (const auto& t : mesh.triangles) {
+  for (const auto i : parts) {
+    const Eigen::Vector4d& q = spheres[static_cast<std::size_t>(i)];
+    const double h2 = q[3] * q[3] - (x - q[0]) * (x - q[0]) - (y - q[1]) * (y - q[1]);
+    if (h2 > 0) out.emplace_back(q[2] - std::sqrt(h2), q[2] + std::sqrt(h2));
+  }
+  merge_intervals(out);
+}
+
+/// Column intervals of a mesh from the triangles `parts`: the crossings of the vertical
+/// line with them, paired in order (a closed surface is crossed an even number of times).
+/// `parts` must hold every triangle whose xy box holds (x, y).
+template <class Parts>
+void mesh_column(const TriangleMesh& mesh, const Parts& parts, double x, double y,
+                 std::vector<std::pair<double, double>>& out, std::vector<double>& z) {
+  out.clear();
+  z.clear();
+  for (const auto ti : parts) {
+    const Eigen::Vector3i& t = mesh.triangles[static_cast<std::size_t>(ti)];
     const Eigen::Vector3d &a = mesh.vertices[t[0]], &b = mesh.vertices[t[1]], &c = mesh.vertices[t[2]];
     const double w0 = (b[0] - x) * (c[1] - y) - (c[0] - x) * (b[1] - y);
     const double w1 = (c[0] - x) * (a[1] - y) - (a[0] - x) * (c[1] - y);
@@ -78,6 +110,24 @@ void mesh_column(const TriangleMesh& mesh, double x, double y, std::vector<std::
   }
   std::sort(z.begin(), z.end());
   for (std::size_t i = 0; i + 1 < z.size(); i += 2) out.emplace_back(z[i], z[i + 1]);
+}
+
+void merge_intervals(std::vector<std::pair<double, double>>& v) {
+  std::sort(v.begin(), v.end());
+  std::size_t w = 0;
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    if (w > 0 && v[i].first <= v[w - 1].second)
+      v[w - 1].second = std::max(v[w - 1].second, v[i].second);
+    else
+      v[w++] = v[i];
+  }
+  v.resize(w);
+}
+
+/// The z-intervals where the vertical line through (x, y) lies inside the closed mesh.
+void mesh_column(const TriangleMesh& mesh, double x, double y, std::vector<std::pair<double, double>>& out) {
+  std::vector<double> z;
+  mesh_column(mesh, AllParts{mesh.triangles.size()}, x, y, out, z);
 }
 
 }  // namespace
@@ -125,8 +175,7 @@ std::string check_closed_mesh(const TriangleMesh& mesh) {
 
 MassProperties mesh_mass_properties(const TriangleMesh& mesh) {
   // Signed tetrahedra from a reference point inside the bounding box (less round-off).
-  Eigen::AlignedBox3d box;
-  for (const auto& v : mesh.vertices) box.extend(v);
+  const Eigen::AlignedBox3d box = used_vertex_bounds(mesh);
   const Eigen::Vector3d o = box.isEmpty() ? Eigen::Vector3d(Eigen::Vector3d::Zero()) : Eigen::Vector3d(box.center());
   double vol = 0;
   Eigen::Vector3d first = Eigen::Vector3d::Zero();
@@ -240,6 +289,7 @@ Shape Shape::superquadric(double a, double b, double c, double e1, double e2) {
   // Jaklic et al. (2000): V = 2 a b c e1 e2 B(e1/2 + 1, e1) B(e2/2, e2/2).
   s.props_.volume = 2 * a * b * c * e1 * e2 * beta(e1 / 2 + 1, e1) * beta(e2 / 2, e2 / 2);
   s.bounds_ = Eigen::AlignedBox3d(-s.axes_, s.axes_);
+  check_sampling_cost(s, kMaxShapeSamples);
   s.props_.second_moment = sampled_second_moment(sample_shape(s, 400000), Eigen::Vector3d::Zero(), s.props_.volume);
   return s;
 }
@@ -256,38 +306,53 @@ Shape Shape::clump(std::vector<Eigen::Vector4d> spheres) {
   s.spheres_ = std::move(spheres);
   // Exact slice areas and moments (union of disks) integrated over z between the
   // spheres' poles and centres, where the slice topology changes.
+  // Integrated about the bounding box's centre c0, with the moments divided by `spread`
+  // (1 unless the spheres lie more than 1000 radii apart): the moments' round-off then
+  // stays within the tolerance, which otherwise drove the adaptive rule to its full depth
+  // (minutes for two spheres 1e15 apart).
+  const Eigen::Vector3d c0 = s.bounds_.center();
+  double scale = 0;
+  for (const auto& q : s.spheres_) scale = std::max(scale, q[3]);
+  const double spread = std::max(1.0, s.bounds_.sizes().maxCoeff() / (1000 * scale));
   std::vector<double> breaks;
-  for (const auto& q : s.spheres_) breaks.insert(breaks.end(), {q[2] - q[3], q[2], q[2] + q[3]});
+  for (const auto& q : s.spheres_) {
+    const double z = q[2] - c0[2];
+    breaks.insert(breaks.end(), {z - q[3], z, z + q[3]});
+  }
   std::sort(breaks.begin(), breaks.end());
   breaks.erase(std::unique(breaks.begin(), breaks.end()), breaks.end());
   std::vector<Eigen::Vector3d> disks;
   auto slice = [&](double z) {
     disks.clear();
     for (const auto& q : s.spheres_) {
-      const double h2 = q[3] * q[3] - (z - q[2]) * (z - q[2]);
-      if (h2 > 0) disks.emplace_back(q[0], q[1], std::sqrt(h2));
+      const double dz = z - (q[2] - c0[2]);
+      const double h2 = q[3] * q[3] - dz * dz;
+      if (h2 > 0) disks.emplace_back(q[0] - c0[0], q[1] - c0[1], std::sqrt(h2));
     }
     const DiskUnion u = disk_union(disks);
-    return Vec4(u.area, u.moment_x, u.moment_y, z * u.area);
+    return Vec4(u.area, u.moment_x / spread, u.moment_y / spread, z * u.area / spread);
   };
-  double scale = 0;
-  for (const auto& q : s.spheres_) scale = std::max(scale, q[3]);
   const double tol = 1e-13 * scale * scale * scale;
   Vec4 total = Vec4::Zero();
   for (std::size_t i = 0; i + 1 < breaks.size(); ++i) total += integrate(slice, breaks[i], breaks[i + 1], tol);
   s.props_.volume = total[0];
-  s.props_.centroid = Eigen::Vector3d(total[1], total[2], total[3]) / total[0];
+  s.props_.centroid = c0 + Eigen::Vector3d(total[1], total[2], total[3]) * (spread / total[0]);
+  check_sampling_cost(s, kMaxShapeSamples);
   s.props_.second_moment = sampled_second_moment(sample_shape(s, 400000), s.props_.centroid, s.props_.volume);
   return s;
 }
 
 Shape Shape::mesh(TriangleMesh mesh) {
+  if (mesh.triangles.size() > kMaxMeshTriangles)
+    throw std::invalid_argument("mesh has " + std::to_string(mesh.triangles.size()) + " triangles, more than the limit of " +
+                                std::to_string(kMaxMeshTriangles) + " a shape may have; simplify the surface");
   if (const std::string problem = check_closed_mesh(mesh); !problem.empty()) throw std::invalid_argument(problem);
   Shape s;
   s.kind_ = Kind::mesh;
-  for (const auto& v : mesh.vertices) s.bounds_.extend(v);
+  s.bounds_ = used_vertex_bounds(mesh);
   s.props_ = mesh_mass_properties(mesh);
   s.mesh_ = std::move(mesh);
+  check_sampling_cost(s, kMaxShapeSamples);  // refuse now what the first compute could not sample
   return s;
 }
 
@@ -324,14 +389,9 @@ void Shape::column(double x, double y, std::vector<std::pair<double, double>>& o
       }
       break;
     }
-    case Kind::clump: {
-      for (const auto& q : spheres_) {
-        const double h2 = q[3] * q[3] - (x - q[0]) * (x - q[0]) - (y - q[1]) * (y - q[1]);
-        if (h2 > 0) out.emplace_back(q[2] - std::sqrt(h2), q[2] + std::sqrt(h2));
-      }
-      merge_intervals(out);
+    case Kind::clump:
+      clump_column(spheres_, AllParts{spheres_.size()}, x, y, out);
       break;
-    }
     case Kind::mesh: {
       mesh_column(mesh_, x, y, out);
       break;
@@ -347,27 +407,167 @@ bool Shape::contains(const Eigen::Vector3d& p) const {
   return false;
 }
 
+namespace {
+
+/// sample_shape's grid: columns at x = lo0 + (i + 1/2) hx, y = lo1 + (j + 1/2) hy, i < nx,
+/// j < ny, and layers of thickness h anchored at lo2.
+struct SampleGrid {
+  Eigen::Vector3d lo;
+  double h = 0, hx = 0, hy = 0;
+  std::int64_t nx = 1, ny = 1;
+};
+
+[[noreturn]] void too_costly(const Shape& shape, std::size_t target, const std::string& what) {
+  const double size = shape.bounds().sizes().maxCoeff();
+  std::ostringstream msg;
+  msg << shape.description() << ": sampling it with " << target << " points " << what
+      << "; the shape is too thin, or its parts too far apart, for its volume (largest extent / volume^(1/3) = "
+      << size / std::cbrt(shape.volume())
+      << "): make it more compact, drop distant parts, or register them as separate shapes";
+  throw std::invalid_argument(msg.str());
+}
+
+SampleGrid sample_grid(const Shape& shape, std::size_t target) {
+  SampleGrid g;
+  g.lo = shape.bounds().min();
+  const Eigen::Vector3d ext = shape.bounds().sizes();
+  g.h = std::cbrt(shape.volume() / double(std::max<std::size_t>(target, 1)));
+  const double span = ext.maxCoeff() / g.h;
+  if (!(g.h > 0) || !(span <= kMaxSampleSpan)) {
+    std::ostringstream what;
+    what << "spans " << span << " sample spacings, more than the limit " << kMaxSampleSpan;
+    too_costly(shape, target, what.str());
+  }
+  g.nx = std::max<std::int64_t>(1, std::int64_t(std::ceil(ext[0] / g.h)));
+  g.ny = std::max<std::int64_t>(1, std::int64_t(std::ceil(ext[1] / g.h)));
+  g.hx = ext[0] / double(g.nx);
+  g.hy = ext[1] / double(g.ny);
+  return g;
+}
+
+/// Indices [first, last] of the columns whose centres lo + (i + 1/2) step lie in [a, b],
+/// within [0, n); empty when first > last.
+std::pair<std::int64_t, std::int64_t> column_range(double a, double b, double lo, double step, std::int64_t n) {
+  if (!(step > 0)) return {0, n - 1};  // a flat axis has one column
+  // One column more on each side, so round-off in the division cannot miss a column
+  // whose centre lies on the box's edge.
+  const double first = std::max(0.0, std::ceil((a - lo) / step - 0.5) - 1);
+  const double last = std::min(double(n - 1), std::floor((b - lo) / step - 0.5) + 1);
+  if (!(first <= last)) return {1, 0};
+  return {std::int64_t(first), std::int64_t(last)};
+}
+
+/// Calls f(first_i, last_i, first_j, last_j, part) for each part of a clump (its spheres)
+/// or a mesh (its triangles); one of the two is empty.
+template <class F>
+void for_each_part_columns(const std::vector<Eigen::Vector4d>& spheres, const TriangleMesh& mesh, const SampleGrid& g,
+                           F&& f) {
+  const auto cover = [&](double x0, double x1, double y0, double y1, std::int64_t part) {
+    const auto [i0, i1] = column_range(x0, x1, g.lo[0], g.hx, g.nx);
+    const auto [j0, j1] = column_range(y0, y1, g.lo[1], g.hy, g.ny);
+    if (i0 <= i1 && j0 <= j1) f(i0, i1, j0, j1, part);
+  };
+  for (std::size_t s = 0; s < spheres.size(); ++s) {
+    const Eigen::Vector4d& q = spheres[s];
+    cover(q[0] - q[3], q[0] + q[3], q[1] - q[3], q[1] + q[3], std::int64_t(s));
+  }
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+    const Eigen::Vector3i& tri = mesh.triangles[t];
+    const Eigen::Vector3d &a = mesh.vertices[tri[0]], &b = mesh.vertices[tri[1]], &c = mesh.vertices[tri[2]];
+    cover(std::min({a[0], b[0], c[0]}), std::max({a[0], b[0], c[0]}), std::min({a[1], b[1], c[1]}),
+          std::max({a[1], b[1], c[1]}), std::int64_t(t));
+  }
+}
+
+void add_column_samples(const SampleGrid& g, double x, double y, const std::vector<std::pair<double, double>>& col,
+                        SampledBody& s);
+
+/// Samples of a clump's spheres or a mesh's triangles on grid g, walking only the columns
+/// a part covers, each with only the parts that cover it: the cost is bounded by the
+/// covered columns (check_sampling_cost), not by the bounding box or the parts.
+void sample_by_parts(const std::vector<Eigen::Vector4d>& spheres, const TriangleMesh& mesh, const SampleGrid& g,
+                     SampledBody& s) {
+  struct Cover {
+    std::int64_t column;
+    std::int64_t part;
+    bool operator<(const Cover& o) const { return column < o.column || (column == o.column && part < o.part); }
+  };
+  std::vector<Cover> covers;
+  for_each_part_columns(spheres, mesh, g, [&](std::int64_t i0, std::int64_t i1, std::int64_t j0, std::int64_t j1, std::int64_t part) {
+    for (std::int64_t j = j0; j <= j1; ++j)
+      for (std::int64_t i = i0; i <= i1; ++i) covers.push_back({i + g.nx * j, part});
+  });
+  std::sort(covers.begin(), covers.end());  // columns in the full walk's order (j, then i)
+  std::vector<std::int64_t> parts;
+  std::vector<double> z;
+  std::vector<std::pair<double, double>> col;
+  for (std::size_t b = 0; b < covers.size();) {
+    std::size_t e = b;
+    parts.clear();
+    while (e < covers.size() && covers[e].column == covers[b].column) parts.push_back(covers[e++].part);
+    const std::int64_t i = covers[b].column % g.nx, j = covers[b].column / g.nx;
+    const double x = g.lo[0] + (double(i) + 0.5) * g.hx, y = g.lo[1] + (double(j) + 0.5) * g.hy;
+    if (!spheres.empty())
+      clump_column(spheres, parts, x, y, col);
+    else
+      mesh_column(mesh, parts, x, y, col, z);
+    add_column_samples(g, x, y, col, s);
+    b = e;
+  }
+}
+
+bool sampled_by_parts(const Shape& shape) {
+  return shape.kind() == Shape::Kind::clump || shape.kind() == Shape::Kind::mesh;
+}
+
+/// Appends the samples of the column at (x, y) with intervals col.
+void add_column_samples(const SampleGrid& g, double x, double y, const std::vector<std::pair<double, double>>& col,
+                        SampledBody& s) {
+  for (const auto& [zlo, zhi] : col) {
+    // Midpoints of the z-grid anchored at the bounding box lie inside [zlo, zhi].
+    const auto k0 = std::int64_t(std::ceil((zlo - g.lo[2]) / g.h - 0.5)), k1 = std::int64_t(std::floor((zhi - g.lo[2]) / g.h - 0.5));
+    for (std::int64_t k = k0; k <= k1; ++k) s.points.emplace_back(x, y, g.lo[2] + (double(k) + 0.5) * g.h);
+  }
+}
+
+}  // namespace
+
+double check_sampling_cost(const Shape& shape, std::size_t target) {
+  const SampleGrid g = sample_grid(shape, target);
+  double columns = 0;
+  if (sampled_by_parts(shape))
+    for_each_part_columns(shape.spheres(), shape.mesh(), g,
+                          [&](std::int64_t i0, std::int64_t i1, std::int64_t j0, std::int64_t j1, std::int64_t) {
+                            columns += double(i1 - i0 + 1) * double(j1 - j0 + 1);
+                          });
+  else
+    columns = double(g.nx) * double(g.ny);
+  if (columns > kMaxSampleColumns) {
+    std::ostringstream what;
+    what << "walks " << columns << " columns of its sampling grid, more than the limit " << kMaxSampleColumns;
+    too_costly(shape, target, what.str());
+  }
+  return columns;
+}
+
 SampledBody sample_shape(const Shape& shape, std::size_t target) {
+  check_sampling_cost(shape, target);
+  const SampleGrid g = sample_grid(shape, target);
   SampledBody s;
-  const Eigen::Vector3d lo = shape.bounds().min(), ext = shape.bounds().sizes();
-  const double h = std::cbrt(shape.volume() / double(std::max<std::size_t>(target, 1)));
-  const int nx = std::max(1, int(std::ceil(ext[0] / h))), ny = std::max(1, int(std::ceil(ext[1] / h)));
-  const double hx = ext[0] / nx, hy = ext[1] / ny;
-  s.cell_volume = hx * hy * h;
+  s.cell_volume = g.hx * g.hy * g.h;
   s.points.reserve(target + target / 4);
   std::vector<std::pair<double, double>> col;
-  for (int j = 0; j < ny; ++j) {
-    const double y = lo[1] + (j + 0.5) * hy;
-    for (int i = 0; i < nx; ++i) {
-      const double x = lo[0] + (i + 0.5) * hx;
-      shape.column(x, y, col);
-      for (const auto& [zlo, zhi] : col) {
-        // Midpoints of the z-grid anchored at the bounding box lie inside [zlo, zhi].
-        const long k0 = long(std::ceil((zlo - lo[2]) / h - 0.5)), k1 = long(std::floor((zhi - lo[2]) / h - 0.5));
-        for (long k = k0; k <= k1; ++k) s.points.emplace_back(x, y, lo[2] + (k + 0.5) * h);
+  const auto x_of = [&](std::int64_t i) { return g.lo[0] + (double(i) + 0.5) * g.hx; };
+  const auto y_of = [&](std::int64_t j) { return g.lo[1] + (double(j) + 0.5) * g.hy; };
+  if (!sampled_by_parts(shape)) {
+    for (std::int64_t j = 0; j < g.ny; ++j)
+      for (std::int64_t i = 0; i < g.nx; ++i) {
+        shape.column(x_of(i), y_of(j), col);
+        add_column_samples(g, x_of(i), y_of(j), col, s);
       }
-    }
+    return s;
   }
+  sample_by_parts(shape.spheres(), shape.mesh(), g, s);
   return s;
 }
 
@@ -486,29 +686,28 @@ ParticleTemplate make_shape_template_variant(const Shape& shape, int n, std::uin
   const Eigen::Vector3i count = ((frame_box.max() - lo) / h).array().ceil().cast<int>().max(1);
   std::vector<Eigen::Vector3d> samples;
   samples.reserve(target + target / 4);
-  TriangleMesh turned;
-  if (shape.kind() == Shape::Kind::mesh) {
-    turned = shape.mesh();
+  if (shape.kind() == Shape::Kind::mesh || shape.kind() == Shape::Kind::clump) {
+    // The parts turned into the lattice's frame, sampled column by covered column.
+    TriangleMesh turned = shape.mesh();
     for (auto& v : turned.vertices) v = turn.transpose() * v;
-  }
-  std::vector<std::pair<double, double>> col;
-  for (int j = 0; j < count[1]; ++j) {
-    const double y = lo[1] + (j + 0.5) * h;
-    for (int i = 0; i < count[0]; ++i) {
-      const double x = lo[0] + (i + 0.5) * h;
-      if (shape.kind() == Shape::Kind::mesh) {
-        mesh_column(turned, x, y, col);
-        for (const auto& [zlo, zhi] : col) {
-          const long k0 = long(std::ceil((zlo - lo[2]) / h - 0.5)), k1 = long(std::floor((zhi - lo[2]) / h - 0.5));
-          for (long k = k0; k <= k1; ++k) samples.emplace_back(x, y, lo[2] + (double(k) + 0.5) * h);
+    std::vector<Eigen::Vector4d> spheres = shape.spheres();
+    for (auto& q : spheres) q.head<3>() = turn.transpose() * q.head<3>();
+    SampleGrid g;
+    g.lo = lo;
+    g.h = g.hx = g.hy = h;
+    g.nx = count[0];
+    g.ny = count[1];
+    SampledBody body;
+    body.points = std::move(samples);
+    sample_by_parts(spheres, turned, g, body);
+    samples = std::move(body.points);
+  } else {
+    for (int j = 0; j < count[1]; ++j)
+      for (int i = 0; i < count[0]; ++i)
+        for (int k = 0; k < count[2]; ++k) {
+          const Eigen::Vector3d q(lo[0] + (i + 0.5) * h, lo[1] + (j + 0.5) * h, lo[2] + (k + 0.5) * h);
+          if (shape.contains(turn * q)) samples.push_back(q);
         }
-        continue;
-      }
-      for (int k = 0; k < count[2]; ++k) {
-        const Eigen::Vector3d q(x, y, lo[2] + (k + 0.5) * h);
-        if (shape.contains(turn * q)) samples.push_back(q);
-      }
-    }
   }
   return partition_samples(shape, samples, n, &turn);
 }

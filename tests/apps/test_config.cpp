@@ -259,3 +259,34 @@ TEST(Config, RectilinearMeshesFromNodeListsAndGradedAxes) {
   EXPECT_NE(error_of(replaced(good, "y: {lo: 0, hi: 0.02, cells: 4}", "y: {lo: 0, hi: 0.02}")).find("needs lo, hi and cells"),
             std::string::npos);
 }
+
+// A bounds spacing of 1e-200 once became a cell count of -2^63 (a double-to-integer
+// conversion out of range); the count is checked before it is converted, and spacings
+// whose cells cannot be computed in doubles are refused by the engine with a message.
+TEST(ConfigErrors, SpacingsThatOverflowCellCountsOrVolumes) {
+  const SceneConfig c = parse_config(kGood, "/cfg", "bed.yaml");
+  const std::array<double, 6> box{0, 0.02, 0, 0.02, 0, 0.06};
+  for (const double h : {1e-200, 5e-324, 1e-15, 0.0, -0.001}) {
+    MeshSpec m = c.meshes[1];
+    m.spacing = std::array<double, 3>{h, h, h};
+    try {
+      (void)resolve_grid(m, &box, "bed.yaml");
+      ADD_FAILURE() << "accepted spacing " << h;
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("at most 2^40 cells"), std::string::npos) << e.what();
+    }
+  }
+  for (const double h : {1e-200, 5e-324, 1e200}) {
+    vfe::CartesianGridSpec g;
+    g.origin = {0, 0, 0};
+    g.spacing = {h, h, h};
+    g.cells = {2, 2, 2};
+    try {
+      vfe::Engine e(g);
+      ADD_FAILURE() << "accepted spacing " << h;
+    } catch (const vfe::Error& err) {
+      EXPECT_EQ(err.status(), VFE_ERROR_INVALID_ARGUMENT);
+      EXPECT_NE(std::string(err.what()).find("cannot be computed in doubles"), std::string::npos) << err.what();
+    }
+  }
+}

@@ -289,3 +289,21 @@ TEST(DumpReaderErrors, NotADumpAndEmptyFile) {
   const std::string msg2 = error_of(dir / "empty.dump");
   EXPECT_NE(msg2.find("no frame"), std::string::npos) << msg2;
 }
+
+// A dump whose last line was cut inside a number (one still being written) was read as
+// complete. A last line without a line end must end with a blank (LIGGGHTS writes one).
+TEST(DumpReaderErrors, LastLineCutInsideANumberIsAnError) {
+  TempDir dir;
+  std::string text = kFrame;
+  text.resize(text.size() - 2);  // "... 0 0 0 \n" loses its blank and line end: all values
+  ASSERT_EQ(text.back(), '0');     // are there, but the last one may have lost digits
+  write_text(dir / "cut.dump", text);
+  const std::string e = error_of(dir / "cut.dump");
+  EXPECT_NE(e.find("cut.dump:12"), std::string::npos) << e;
+  EXPECT_NE(e.find("no line end"), std::string::npos) << e;
+  // The same cut inside a value line of the header.
+  write_text(dir / "cut_header.dump", "ITEM: TIMESTEP\n100\nITEM: NUMBER OF ATOMS\n3");
+  EXPECT_NE(error_of(dir / "cut_header.dump").find("no line end"), std::string::npos);
+  // A folder is not a dump.
+  EXPECT_NE(error_of(dir.path()).find("is a folder"), std::string::npos);
+}

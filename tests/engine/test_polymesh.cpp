@@ -19,6 +19,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -607,6 +608,11 @@ TEST(RectilinearGrid, ValidatesNodes) {
                {"axis y", "node 2", "strictly increasing"});
   expect_error([] { vfe::RectilinearGrid({std::vector<double>{0, 1}, {0, 1}, {0, NAN}}); }, VFE_ERROR_INVALID_ARGUMENT,
                {"axis z", "finite"});
+  // Cells whose volume underflows (or overflows) double.
+  expect_error([] { vfe::RectilinearGrid({std::vector<double>{0, 1e-200}, {0, 1e-200}, {0, 1}}); }, VFE_ERROR_INVALID_ARGUMENT,
+               {"cannot be computed in doubles"});
+  expect_error([] { vfe::RectilinearGrid({std::vector<double>{-1e300, 1e300}, {0, 1e300}, {0, 1}}); },
+               VFE_ERROR_INVALID_ARGUMENT, {"cannot be computed in doubles"});
 }
 
 TEST(RectilinearGrid, LocatesByBinarySearchWithCartesianTieRule) {
@@ -1038,4 +1044,73 @@ TEST(PolyMeshLocateTieRule, ParametersAreValidated) {
     const vfe::SpatialHash h(m, bins);
     EXPECT_EQ(h.locate({0.3, 0.6, 0.9}), 0 + 2 * (1 + 2 * 1));
   }
+}
+
+// Labels and counts near 2^63 once overflowed label + 1 and the topology check wrote out
+// of bounds; every format must refuse them with the file, the entry and the limit.
+TEST(PolyMeshReader, LabelsAndCountsNear2To63AreRefusedInEveryFormat) {
+  PolyMeshData bad = block_mesh({nodes(2, 0, 2), nodes(1, 0, 1), nodes(1, 0, 1)});
+  const std::int64_t huge = std::numeric_limits<std::int64_t>::max() - 1;
+  for (const char* list : {"owner", "neighbour"}) {
+    PolyMeshData d = bad;
+    (std::string(list) == "owner" ? d.owner.back() : d.neighbour.front()) = huge;
+    for (int format = 0; format < 3; ++format) {
+      SCOPED_TRACE(std::string(list) + " format " + std::to_string(format));
+      TempDir t;
+      if (format == 2) {
+        write_binary<std::int64_t>(t.path, d);
+      } else {
+        write_ascii(t.path, d);
+        if (format == 1) {  // gzip the list holding the label
+          const std::string text = read_text(t.path / list);
+          fs::remove(t.path / list);
+          write_gzip(t.path / (std::string(list) + ".gz"), text);
+        }
+      }
+      expect_error([&] { vfe::read_polymesh(t.path); }, VFE_ERROR_INVALID_ARGUMENT,
+                   {list, std::to_string(huge), "fewer than " + std::to_string(d.owner.size()) + " cells"});
+      vfe_engine* e = nullptr;
+      EXPECT_EQ(vfe_create_polymesh(t.path.string().c_str(), &e), VFE_ERROR_INVALID_ARGUMENT);
+      EXPECT_EQ(e, nullptr);
+    }
+  }
+  // The same labels given directly to PolyMesh (not through the reader).
+  PolyMeshData direct = bad;
+  direct.owner.back() = huge;
+  expect_error([&] { PolyMesh m(direct); }, VFE_ERROR_INVALID_ARGUMENT, {"owner of face", std::to_string(huge)});
+  // nFaces (and startFace) of a patch near 2^63.
+  TempDir t;
+  write_ascii(t.path, bad);
+  std::string b = read_text(t.path / "boundary");
+  const auto at = b.find("nFaces          ");
+  ASSERT_NE(at, std::string::npos);
+  b.replace(at + 16, b.find(';', at) - at - 16, std::to_string(std::numeric_limits<std::int64_t>::max()));
+  write_text(t.path / "boundary", b);
+  expect_error([&] { vfe::read_polymesh(t.path); }, VFE_ERROR_INVALID_ARGUMENT,
+               {"boundary", "nFaces 9223372036854775807", "has only"});
+  // A uniform point list that asks for gigabytes from a few bytes.
+  write_text(t.path / "points", foam_header("vectorField", "points") + "67108864{(0 0 0)}\n");
+  expect_error([&] { vfe::read_polymesh(t.path); }, VFE_ERROR_INVALID_ARGUMENT, {"points", "67108864", "65536"});
+}
+
+// A faceCompactList whose offsets decrease (their differences could overflow).
+TEST(PolyMeshReader, DecreasingCompactFaceOffsetsAreRefused) {
+  PolyMeshData d = block_mesh({nodes(1, 0, 1), nodes(1, 0, 1), nodes(1, 0, 1)});
+  d.face_offsets[2] = std::numeric_limits<std::int64_t>::min() + 5;
+  TempDir t;
+  write_binary<std::int64_t>(t.path, d);
+  expect_error([&] { vfe::read_polymesh(t.path); }, VFE_ERROR_INVALID_ARGUMENT, {"faces", "face offset 2", "decrease"});
+}
+
+// A folder where a polyMesh file should be is an I/O error with a message, not an
+// internal one.
+TEST(PolyMeshReader, FolderInPlaceOfAFileIsAnIoError) {
+  TempDir t;
+  write_ascii(t.path, block_mesh({nodes(1, 0, 1), nodes(1, 0, 1), nodes(1, 0, 1)}));
+  fs::remove(t.path / "owner");
+  fs::create_directories(t.path / "owner");
+  expect_error([&] { vfe::read_polymesh(t.path); }, VFE_ERROR_IO, {"owner", "not a regular file"});
+  vfe_engine* e = nullptr;
+  EXPECT_EQ(vfe_create_polymesh(t.path.string().c_str(), &e), VFE_ERROR_IO);
+  EXPECT_EQ(e, nullptr);
 }

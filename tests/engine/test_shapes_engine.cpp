@@ -7,6 +7,7 @@
 
 #include <Eigen/Geometry>
 
+#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -195,4 +196,91 @@ TEST(EngineShapes, StlFilesAsciiAndBinaryAndBadSpecs) {
   } catch (const vfe::Error& err) {
     EXPECT_NE(std::string(err.what()).find("shape id 7"), std::string::npos) << err.what();
   }
+}
+
+// OBJ face indices were read with atoi: "4294967300" became 4, "1x" 1 and "2.9" 2. Every
+// number is now parsed whole, and a folder given as a mesh file is an I/O error.
+TEST(EngineShapes, ObjAndStlNumbersAreParsedStrictlyAndFoldersAreIoErrors) {
+  vfe::Engine e(grid(1.0, 2));
+  const auto status_of = [&](const std::string& spec, const std::string& words) {
+    try {
+      e.add_shape(spec);
+      ADD_FAILURE() << "no error for " << spec;
+      return VFE_OK;
+    } catch (const vfe::Error& err) {
+      EXPECT_NE(std::string(err.what()).find(words), std::string::npos) << err.what();
+      return err.status();
+    }
+  };
+  const std::string cube = kCubeObj;
+  ASSERT_NE(cube.find("\nf 1 "), std::string::npos);
+  for (const char* bad_index : {"4294967300", "1x", "2.9", "0", "+", "9"}) {
+    std::string text = cube;
+    text.replace(text.find("\nf 1 ") + 3, 1, bad_index);
+    EXPECT_EQ(status_of("mesh " + temp_file("bad_index.obj", text).string(), "face reference"),
+              VFE_ERROR_INVALID_ARGUMENT) << bad_index;
+  }
+  std::string bad_vertex = cube;
+  bad_vertex.replace(bad_vertex.find("v ") + 2, 1, "0.5.5");
+  EXPECT_EQ(status_of("mesh " + temp_file("bad_vertex.obj", bad_vertex).string(), "not a finite number"),
+            VFE_ERROR_INVALID_ARGUMENT);
+  EXPECT_EQ(status_of("mesh " + temp_file("bad.stl", "solid s\nfacet\nouter loop\nvertex 0 0 1e999\n").string(),
+                      "not a finite number"),
+            VFE_ERROR_INVALID_ARGUMENT);
+  EXPECT_EQ(status_of("mesh " + temp_file("cut.stl", "solid s\nfacet\nouter loop\nvertex 0 0 1\nvertex 0 1 1\n").string(),
+                      "ends inside a facet"),
+            VFE_ERROR_INVALID_ARGUMENT);
+  EXPECT_EQ(status_of("ellipsoid 1 2 3x", "not a finite number"), VFE_ERROR_INVALID_ARGUMENT);
+  // A folder named like a mesh file, through the C API too.
+  const auto folder = std::filesystem::temp_directory_path() / "vfe_folder_as_mesh.stl";
+  std::filesystem::create_directories(folder);
+  EXPECT_EQ(status_of("mesh " + folder.string(), "is a folder"), VFE_ERROR_IO);
+  vfe_engine* c = nullptr;
+  const double origin[3] = {0, 0, 0}, spacing[3] = {1, 1, 1};
+  const int64_t cells[3] = {2, 2, 2};
+  ASSERT_EQ(vfe_create_cartesian(origin, spacing, cells, &c), VFE_OK);
+  int32_t id = -5;
+  EXPECT_EQ(vfe_add_shape(c, ("mesh " + folder.string()).c_str(), &id), VFE_ERROR_IO);
+  EXPECT_EQ(id, -5);
+  EXPECT_NE(std::string(vfe_last_error(c)).find("is a folder"), std::string::npos);
+  vfe_destroy(c);
+  std::filesystem::remove(folder);
+}
+
+// Shapes whose sampling cost grew with their bounding box: they are refused when
+// registered (naming the limit) or sampled within the body itself.
+TEST(EngineShapes, CostlyShapesAreRefusedUpFrontAndStrayVerticesIgnored) {
+  vfe::Engine e(grid(1.0, 4));
+  const auto refused = [&](const std::string& spec) {
+    try {
+      e.add_shape(spec);
+      ADD_FAILURE() << "accepted " << spec;
+    } catch (const vfe::Error& err) {
+      EXPECT_EQ(err.status(), VFE_ERROR_INVALID_ARGUMENT);
+      EXPECT_NE(std::string(err.what()).find("limit"), std::string::npos) << err.what();
+    }
+  };
+  refused("clump 0 0 0 1; 1e9 0 0 1");
+  refused("superquadric 1 1 1e-9 1 1");
+  // A box 1 x 1 x 1e-9 (the cube's faces on flattened vertices).
+  const std::string cube = kCubeObj;
+  const std::string flat = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nv 0 0 1e-9\nv 1 0 1e-9\nv 0 1 1e-9\nv 1 1 1e-9\n" +
+                           cube.substr(cube.find("f "));
+  refused("mesh " + temp_file("flat.obj", flat).string());
+  // One unused vertex far away leaves the shape and its cost as they were.
+  const std::string stray = std::string(kCubeObj) + "v 1e300 -1e300 1e300\n";
+  const auto t0 = std::chrono::steady_clock::now();
+  const auto id = e.add_shape("mesh " + temp_file("stray.obj", stray).string());
+  EXPECT_NEAR(e.shape_volume(id), 1.0, 1e-12);
+  Scene s;
+  s.ids = {id};
+  s.centres = {2, 2, 2};
+  s.scales = {0.4};
+  std::vector<double> out(e.cell_count());
+  e.configure("method=pmm particle_grid=50");
+  e.compute(s.view(), out);
+  double total = 0;
+  for (const double v : out) total += v;
+  EXPECT_NEAR(total, 0.4 * 0.4 * 0.4, 1e-12);
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 30.0);
 }

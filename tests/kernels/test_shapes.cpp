@@ -6,6 +6,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
+#include <stdexcept>
 #include <numbers>
 #include <random>
 
@@ -184,4 +186,46 @@ TEST(ShapeTemplate, ClumpAndSuperquadricTemplatesAreCentredEqualVolumeInside) {
     EXPECT_NEAR(sum, 1.0, 1e-13);
     EXPECT_LT((mean - s.centroid()).norm(), 1e-13);
   }
+}
+
+// Sampling walks only the columns the parts cover: spheres far apart (but within the
+// limits) are sampled as fully as a compact clump, every sample lies inside, and the
+// samples' volume matches the exact one.
+TEST(ShapeSampling, SpreadClumpIsSampledWithinItsSpheres) {
+  const Shape spread = Shape::clump({{0, 0, 0, 1}, {40, 0, 0, 1}, {0, 40, 3, 0.5}});
+  const SampledBody s = sample_shape(spread, 200000);
+  ASSERT_GT(s.points.size(), 150000u);
+  for (std::size_t i = 0; i < s.points.size(); i += 97) ASSERT_TRUE(spread.contains(s.points[i])) << i;
+  EXPECT_NEAR(double(s.points.size()) * s.cell_volume / spread.volume(), 1.0, 0.01);
+  EXPECT_LT(check_sampling_cost(spread, 200000), 3 * 200000.0);
+}
+
+// A mesh's unused vertices do not stretch its box; shapes too thin or spread for their
+// volume are refused when made, with the limit in the message.
+TEST(ShapeSampling, StrayVerticesAreIgnoredAndCostlyShapesRefused) {
+  TriangleMesh cube = unit_cube();
+  cube.vertices.emplace_back(1e12, -1e12, 1e12);
+  const Shape s = Shape::mesh(cube);
+  EXPECT_EQ(s.bounds().min(), Eigen::Vector3d(0, 0, 0));
+  EXPECT_EQ(s.bounds().max(), Eigen::Vector3d(1, 1, 1));
+  EXPECT_NEAR(s.centroid().x(), 0.5, 1e-12);
+  const auto refused = [](const std::function<Shape()>& make) {
+    try {
+      (void)make();
+      ADD_FAILURE() << "accepted";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("limit"), std::string::npos) << e.what();
+    }
+  };
+  refused([] { return Shape::clump({{0, 0, 0, 1}, {0, 1e9, 0, 1}}); });
+  refused([] {
+    TriangleMesh sliver = tetrahedron();
+    sliver.vertices[3] = Eigen::Vector3d(0, 0, 1e-9);
+    return Shape::mesh(sliver);
+  });
+  refused([] {
+    TriangleMesh many;
+    many.triangles.resize(kMaxMeshTriangles + 1, Eigen::Vector3i(0, 1, 2));
+    return Shape::mesh(many);
+  });
 }

@@ -54,6 +54,9 @@ void PolyMesh::validate_topology() {
     invalid(src, "the last face offset (" + std::to_string(d_.face_offsets.back()) + ") must equal the number of face " +
                      "point labels (" + std::to_string(d_.face_points.size()) + ")");
   for (std::int64_t f = 0; f < n_faces; ++f) {
+    // Non-decreasing offsets from 0 to the label count stay in range (and their difference cannot overflow).
+    if (d_.face_offsets[static_cast<std::size_t>(f) + 1] < d_.face_offsets[static_cast<std::size_t>(f)])
+      invalid(src, "face offset " + std::to_string(f + 1) + " is smaller than the one before; offsets must not decrease");
     const auto size = d_.face_offsets[static_cast<std::size_t>(f) + 1] - d_.face_offsets[static_cast<std::size_t>(f)];
     if (size < 3) invalid(src, "face " + std::to_string(f) + " has " + std::to_string(size) + " points; a face needs at least 3");
     for (const auto p : face(f))
@@ -69,11 +72,16 @@ void PolyMesh::validate_topology() {
                      " faces; only internal faces (the first ones) have a neighbour");
   n_cells_ = 0;
   for (std::size_t f = 0; f < d_.owner.size(); ++f) {
-    if (d_.owner[f] < 0) invalid(src, "owner of face " + std::to_string(f) + " is " + std::to_string(d_.owner[f]));
+    // A cell has at least 4 faces, so labels >= n_faces are corrupt (and label + 1 could overflow).
+    if (d_.owner[f] < 0 || d_.owner[f] >= n_faces)
+      invalid(src, "owner of face " + std::to_string(f) + " is " + std::to_string(d_.owner[f]) + "; cell labels of a " +
+                       "mesh of " + std::to_string(n_faces) + " faces lie in 0.." + std::to_string(n_faces - 1));
     n_cells_ = std::max(n_cells_, d_.owner[f] + 1);
   }
   for (std::size_t f = 0; f < d_.neighbour.size(); ++f) {
-    if (d_.neighbour[f] < 0) invalid(src, "neighbour of face " + std::to_string(f) + " is " + std::to_string(d_.neighbour[f]));
+    if (d_.neighbour[f] < 0 || d_.neighbour[f] >= n_faces)
+      invalid(src, "neighbour of face " + std::to_string(f) + " is " + std::to_string(d_.neighbour[f]) + "; cell " +
+                       "labels of a mesh of " + std::to_string(n_faces) + " faces lie in 0.." + std::to_string(n_faces - 1));
     if (d_.neighbour[f] == d_.owner[f])
       invalid(src, "face " + std::to_string(f) + " has cell " + std::to_string(d_.owner[f]) + " as owner and neighbour");
     n_cells_ = std::max(n_cells_, d_.neighbour[f] + 1);

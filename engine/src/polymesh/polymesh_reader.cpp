@@ -25,6 +25,7 @@ constexpr const char* kRegenerate =
 
 // Counts beyond this are corrupt (2^40 entries would need terabytes).
 constexpr std::int64_t kMaxCount = std::int64_t(1) << 40;
+constexpr std::int64_t kMaxUniformPoints = std::int64_t(1) << 16;
 
 [[noreturn]] void io_error(const std::string& message) { throw Error(VFE_ERROR_IO, message); }
 
@@ -86,6 +87,10 @@ FileText load(const fs::path& dir, const std::string& name) {
   const fs::path gz = dir / (name + ".gz");
   if (fs::is_regular_file(plain, ec)) return {plain, read_plain(plain)};
   if (fs::is_regular_file(gz, ec)) return {gz, read_gzip(gz)};
+  for (const fs::path& p : {plain, gz})
+    if (fs::exists(p, ec))
+      io_error("polyMesh file " + p.string() + " is not a regular file (a folder?); it must be the " + name +
+               " file written by blockMesh or snappyHexMesh");
   io_error("polyMesh file '" + name + "' not found in " + dir.string() + " (looked for " + name + " and " + name +
            ".gz); give an OpenFOAM case folder (with constant/polyMesh) or its constant/polyMesh folder, which "
            "needs points, faces, owner, neighbour and boundary (written by blockMesh or snappyHexMesh)");
@@ -111,6 +116,9 @@ class FoamText {
   }
   std::string file_name() const { return path_.string(); }
   std::size_t pos() const { return pos_; }
+  /// Bytes left after the current position: an ASCII list of n entries of at least k bytes
+  /// each cannot have more than remaining() / k entries, which bounds what to reserve.
+  std::size_t remaining() const { return text_.size() - std::min(pos_, text_.size()); }
 
   [[noreturn]] void fail_at(std::size_t at, const std::string& what, const char* hint = kRegenerate) const {
     std::ostringstream msg;
@@ -483,7 +491,10 @@ std::vector<Eigen::Vector3d> read_points(FoamText& t) {
   const std::size_t list_at = t.pos();
   if (open == '{') {  // uniform: all points equal (degenerate, but well-formed)
     t.expect('{', "");
-    if (n > (std::int64_t(1) << 26)) t.fail_at(list_at, "uniform point list of " + std::to_string(n) + " points is not a mesh");
+    // All points equal is never a valid mesh; the limit keeps a few bytes from costing gigabytes.
+    if (n > kMaxUniformPoints)
+      t.fail_at(list_at, "uniform point list of " + std::to_string(n) + " points (more than " +
+                             std::to_string(kMaxUniformPoints) + ") is not a mesh");
     Eigen::Vector3d v;
     if (t.binary()) {
       const char* p = t.raw(3 * t.scalar_bytes(), what);
@@ -518,7 +529,7 @@ std::vector<Eigen::Vector3d> read_points(FoamText& t) {
     t.expect_raw_end(')', what);
     return points;
   }
-  if (n > 0) points.reserve(static_cast<std::size_t>(std::min<std::int64_t>(n, std::int64_t(1) << 24)));
+  if (n > 0) points.reserve(std::min(static_cast<std::size_t>(n), t.remaining() / 7));  // "(0 0 0)" 
   std::int64_t i = 0;
   while (true) {
     const char c = t.peek();
@@ -566,7 +577,15 @@ void read_faces(FoamText& t, std::int64_t n_points, PolyMeshData& mesh) {
   if (t.header("class") == "faceCompactList") {
     std::vector<std::int64_t> offsets;
     const std::size_t offsets_at = t.pos();
-    read_label_list(t, offsets, "the face offsets", 1, [](std::int64_t, std::int64_t, std::size_t) {});
+    // Offsets are checked against their predecessor as they come, so differences cannot overflow.
+    read_label_list(t, offsets, "the face offsets", 1, [&t, &offsets](std::int64_t v, std::int64_t i, std::size_t at) {
+      const std::int64_t previous = offsets.empty() ? 0 : offsets.back();
+      if (v < previous || (i == 0 && v != 0))
+        t.fail_at(at, "face offset " + std::to_string(i) + " is " + std::to_string(v) +
+                          (i == 0 ? "; the face offsets of a faceCompactList must start with 0"
+                                  : "; it is smaller than the one before (" + std::to_string(previous) +
+                                        "): offsets must not decrease"));
+    });
     const std::size_t labels_at = t.pos();
     read_label_list(t, mesh.face_points, "the face point labels", 1, point_check("a face"));
     if (offsets.empty() || offsets.front() != 0)
@@ -587,7 +606,7 @@ void read_faces(FoamText& t, std::int64_t n_points, PolyMeshData& mesh) {
   }
   t.expect('(', "");
   if (n > 0) {
-    const auto reserve = static_cast<std::size_t>(std::min<std::int64_t>(n, std::int64_t(1) << 24));
+    const auto reserve = std::min(static_cast<std::size_t>(n), t.remaining() / 8);  // "3(0 1 2)" 
     mesh.face_offsets.reserve(reserve + 1);
     mesh.face_points.reserve(4 * reserve);
   }
@@ -657,6 +676,11 @@ std::vector<PolyPatch> read_boundary(FoamText& t, std::int64_t n_internal, std::
   std::int64_t expected = n_internal;
   for (std::size_t i = 0; i < patches.size(); ++i) {
     const auto& p = patches[i];
+    // Both are >= 0; bounding them by the face count keeps expected + n_faces from overflowing.
+    if (p.n_faces > n_faces || p.start_face > n_faces)
+      t.fail_at(where[i], "patch '" + p.name + "' has nFaces " + std::to_string(p.n_faces) + " and startFace " +
+                              std::to_string(p.start_face) + " but the mesh has only " + std::to_string(n_faces) +
+                              " faces");
     if (p.start_face != expected)
       t.fail_at(where[i], "patch '" + p.name + "' starts at face " + std::to_string(p.start_face) +
                               " but the faces before it end at " + std::to_string(expected) +
@@ -669,6 +693,14 @@ std::vector<PolyPatch> read_boundary(FoamText& t, std::int64_t n_internal, std::
                           std::to_string(n_faces) + " faces (" + std::to_string(n_internal) +
                           " internal); boundary, faces and neighbour do not belong together");
   return patches;
+}
+
+/// A cell has at least 4 faces and a face at most 2 cells, so a mesh of n_faces faces has
+/// fewer than n_faces cells: a larger label is corrupt (and would overflow label + 1).
+std::string cell_label_too_large(const char* list, std::int64_t face, std::int64_t label, std::int64_t n_faces) {
+  return std::string(list) + " of face " + std::to_string(face) + " is cell " + std::to_string(label) +
+         ", but a mesh of " + std::to_string(n_faces) + " faces has fewer than " + std::to_string(n_faces) +
+         " cells (labels 0.." + std::to_string(n_faces - 1) + " at most)";
 }
 
 /// nCells from a header note such as "nPoints:3751  nCells:3000  nFaces:9700 ...", or -1.
@@ -719,8 +751,9 @@ PolyMeshData read_polymesh(const std::filesystem::path& dir) {
   {
     FoamText t(load(mesh_dir, "owner"));
     const std::size_t at = t.pos();
-    const auto nonnegative = [&t](std::int64_t v, std::int64_t i, std::size_t pos) {
+    const auto nonnegative = [&t, n_faces](std::int64_t v, std::int64_t i, std::size_t pos) {
       if (v < 0) t.fail_at(pos, "owner of face " + std::to_string(i) + " is " + std::to_string(v) + "; cell labels are >= 0");
+      if (v >= n_faces) t.fail_at(pos, cell_label_too_large("owner", i, v, n_faces));
     };
     mesh.owner.reserve(static_cast<std::size_t>(n_faces));
     read_label_list(t, mesh.owner, "the owner list", n_faces, nonnegative);
@@ -739,6 +772,7 @@ PolyMeshData read_polymesh(const std::filesystem::path& dir) {
       if (v < 0)
         t.fail_at(pos, "neighbour of face " + std::to_string(i) + " is " + std::to_string(v) +
                            "; cell labels are >= 0 (boundary faces have no neighbour entry)");
+      if (v >= n_faces) t.fail_at(pos, cell_label_too_large("neighbour", i, v, n_faces));
       if (i < n_faces && v == owner[static_cast<std::size_t>(i)])
         t.fail_at(pos, "face " + std::to_string(i) + " has cell " + std::to_string(v) + " as both owner and neighbour");
     };

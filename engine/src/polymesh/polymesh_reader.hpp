@@ -51,6 +51,11 @@ struct PolyMeshData {
 /// VFE_ERROR_UNSUPPORTED for big-endian binary files or unknown label/scalar sizes.
 /// Checks what can be checked without geometry: counts, labels in range, owner/neighbour
 /// sizes, patch ranges, the header's nCells note. Geometry is PolyMesh's job.
+/// Limits (README "Limits"): list sizes at most 2^40 and what the file's bytes can hold;
+/// point labels in 0..points-1; cell labels in 0..faces-1 (a cell has at least 4 faces,
+/// so a larger label is corrupt and label + 1 cannot overflow); patch nFaces and startFace
+/// at most the face count; face offsets non-decreasing from 0; a uniform point list at
+/// most 65536 points. Past a limit: VFE_ERROR_INVALID_ARGUMENT naming file, entry, limit.
 PolyMeshData read_polymesh(const std::filesystem::path& dir);
 
 }  // namespace vfe

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 namespace vfe {
@@ -30,6 +31,26 @@ RectilinearGrid::RectilinearGrid(std::array<std::vector<double>, 3> nodes) : nod
       }
     }
     n_[static_cast<std::size_t>(d)] = static_cast<std::int64_t>(x.size()) - 1;
+  }
+  // As for Cartesian grids: every cell volume and its inverse must be normal doubles
+  // (node gaps of 1e-200 give volumes of 0 and void fractions of NaN).
+  double smallest = 1, largest = 1;
+  for (const auto& x : nodes_) {
+    double lo = x[1] - x[0], hi = lo;
+    for (std::size_t i = 1; i < x.size(); ++i) {
+      lo = std::min(lo, x[i] - x[i - 1]);
+      hi = std::max(hi, x[i] - x[i - 1]);
+    }
+    smallest *= lo;
+    largest *= hi;
+  }
+  if (!std::isnormal(smallest) || !std::isnormal(1.0 / smallest) || !std::isfinite(largest)) {
+    std::ostringstream msg;
+    msg << "rectilinear grid cells range from " << smallest << " to " << largest
+        << " in volume, which cannot be computed in doubles (each cell volume and its inverse must lie within "
+        << std::numeric_limits<double>::min() << " .. " << std::numeric_limits<double>::max()
+        << "); give the nodes in units where cells are nearer to 1 (e.g. mm or m)";
+    throw Error(VFE_ERROR_INVALID_ARGUMENT, msg.str());
   }
   const double total = double(n_[0]) * double(n_[1]) * double(n_[2]);
   if (total > double(std::int64_t(1) << 40)) {

@@ -6,12 +6,26 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include <cstddef>
 #include <cstdint>
 #include <string>
 #include <utility>
 #include <vector>
 
 namespace vfe::kernels {
+
+/// Limits on a shape's cost (README "Limits"). A mesh shape has at most this many
+/// triangles; the STL/OBJ readers refuse larger files.
+inline constexpr std::size_t kMaxMeshTriangles = std::size_t(1) << 22;  // 4194304
+/// Most samples a shape's template is built from (make_shape_template).
+inline constexpr std::size_t kMaxShapeSamples = 4000000;
+/// Sampling walks vertical columns of a grid of spacing (volume / samples)^(1/3), and only
+/// those a part of the body (a clump's sphere, a mesh's triangle) covers. A shape whose
+/// parts cover more columns than this at kMaxShapeSamples, or whose extent spans more than
+/// kMaxSampleSpan spacings along an axis, is refused when it is made: it is too thin, or
+/// its parts too far apart, for its volume (a flat plate passes up to about 6000:1).
+inline constexpr double kMaxSampleColumns = 8388608;  // 2^23
+inline constexpr double kMaxSampleSpan = 2147483647;   // 2^31 - 1 (column indices are int)
 
 /// Closed triangle surface; triangles list vertex indices counter-clockwise seen from
 /// outside (outward normals).
@@ -69,7 +83,10 @@ class Shape {
   /// Second moment about the centroid: exact for sphere, ellipsoid and mesh; from the
   /// template sampling (relative error ~1e-3) for superquadric and clump.
   const Eigen::Matrix3d& second_moment() const { return props_.second_moment; }
+  /// Bounding box of the body itself (a mesh's unused vertices do not count).
   const Eigen::AlignedBox3d& bounds() const { return bounds_; }
+  /// The clump's spheres (x, y, z, r); empty for other kinds.
+  const std::vector<Eigen::Vector4d>& spheres() const { return spheres_; }
   /// The surface of a mesh shape (empty for the other kinds).
   const TriangleMesh& mesh() const { return mesh_; }
 
@@ -94,7 +111,14 @@ struct SampledBody {
   double cell_volume = 0;  ///< volume each sample stands for
 };
 
-/// Midpoint samples of the body on a regular grid of about `target` points inside it.
+/// Columns of sample_shape's grid at `target` samples that the shape's parts cover (a
+/// column covered by two parts counts twice), or throws std::invalid_argument, naming the
+/// limit, when the shape is beyond kMaxSampleColumns or kMaxSampleSpan.
+double check_sampling_cost(const Shape& shape, std::size_t target);
+
+/// Midpoint samples of the body on a regular grid of about `target` points inside it. Its
+/// cost is the columns the body's parts cover plus the samples (see kMaxSampleColumns);
+/// throws std::invalid_argument past the limits (check_sampling_cost).
 SampledBody sample_shape(const Shape& shape, std::size_t target);
 
 /// PMM template of n sub-elements for the shape, in the shape's template units.
