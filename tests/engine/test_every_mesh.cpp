@@ -280,3 +280,32 @@ TEST(EveryMesh, OutsideCountIsTheSameForEveryMethodOnAGrid) {
 
 }  // namespace
 }  // namespace vfe::test
+
+namespace vfe::test {
+namespace {
+
+// Legal inputs that would cost without bound are refused up front, naming the limit: a
+// big_particle of 1000 cells' radius, exact and gaussian wrapping a periodic grid.
+TEST(EveryMesh, UnboundedFootprintsAreRefusedQuickly) {
+  Engine e(grid(1, 10, 10, 10));
+  Particles p;
+  p.add(5, 5, 5, 1000);
+  std::vector<double> out(e.cell_count(), 3.0);
+  for (const char* opts : {"method=big_particle", "method=exact periodic=xyz", "method=gaussian periodic=xyz",
+                           "method=porous_cube periodic=xyz", "method=pmm particle_grid=20 periodic=xyz"}) {
+    SCOPED_TRACE(opts);
+    e.configure(std::string(opts) + (std::string(opts).find("periodic") ? "" : ""));
+    try {
+      e.compute(p.view(), out);
+      FAIL() << "accepted";
+    } catch (const Error& err) {
+      EXPECT_EQ(err.status(), VFE_ERROR_INVALID_ARGUMENT);
+      EXPECT_NE(std::string(err.what()).find("2^26"), std::string::npos) << err.what();
+    }
+    EXPECT_EQ(out[0], 3.0);
+    e.configure("periodic=none");
+  }
+}
+
+}  // namespace
+}  // namespace vfe::test

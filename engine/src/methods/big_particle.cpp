@@ -30,6 +30,8 @@ void big_particle_particle(const Context& ctx, Scratch& s, const Particle& p) {
     if (far) break;
     g0[d] = static_cast<std::int64_t>(std::ceil(u - a - 0.5));
     const std::int64_t g1 = static_cast<std::int64_t>(std::floor(u + a - 0.5));
+    // Cell centres tested: bounded before anything is sized by them.
+    check_footprint(p.index, double(g1 - g0[d] + 1), std::pow(double(g1 - g0[d] + 1), 3.0));
     m[d] = static_cast<int>(std::max<std::int64_t>(g1 - g0[d] + 1, 0));
     s.nodes[d].resize(static_cast<std::size_t>(m[d]));
     for (int i = 0; i < m[d]; ++i)

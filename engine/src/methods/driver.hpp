@@ -11,12 +11,15 @@
 
 #include <vfe/kernels/particle_template.hpp>
 
+#include <vfe/error.hpp>
+
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
 #include <cstdint>
 #include <limits>
 #include <span>
+#include <string>
 #include <vector>
 
 namespace vfe::kernels {
@@ -173,6 +176,16 @@ void apply_outside(Scratch& s, const Particle& p, double volume, Outside policy,
     case Outside::drop: s.add(dropped_slot, volume); break;
     case Outside::error: s.first_error = std::min(s.first_error, p.index); break;
   }
+}
+
+/// Refuses a footprint of more than 2^26 cells (2^20 along one axis): a particle that large
+/// against its cells (or wrapping a periodic grid many times) would cost without bound.
+inline void check_footprint(std::int64_t particle, double per_axis_max, double cells) {
+  if (per_axis_max > double(1 << 20) || cells > double(1 << 26))
+    throw Error(VFE_ERROR_INVALID_ARGUMENT,
+                "particle " + std::to_string(particle) + " spans " + std::to_string(static_cast<long long>(cells)) +
+                    " cells (limit 2^26, 2^20 along one axis); use cells no smaller than about 1/400 of the "
+                    "particle diameter, or a periodic grid larger than the particle");
 }
 
 /// The cells a footprint around a centre can touch: per axis the cells from the one holding

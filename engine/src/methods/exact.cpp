@@ -32,6 +32,8 @@ void exact_particle(const Context& ctx, Scratch& s, const Particle& p) {
     outside(ctx, s, p, p.volume, grid.nearest(c), flagged, p.outside);
     return;
   }
+  check_footprint(p.index, double(std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]}) + 1),
+                  double(hi[0] - lo[0] + 1) * double(hi[1] - lo[1] + 1) * double(hi[2] - lo[2] + 1));
   int m[3];
   for (int d = 0; d < 3; ++d) {
     m[d] = static_cast<int>(hi[d] - lo[d] + 1);

@@ -7,6 +7,8 @@
 
 #include <vfe/kernels/separable.hpp>
 
+#include <algorithm>
+
 namespace vfe::detail {
 
 /// s.axis[d] holds the weights of the window's cells along axis d (sizes w.m[d]); deposits
@@ -35,6 +37,7 @@ void spread_separable(const Context& ctx, Scratch& s, const Particle& p, const E
     return;
   }
   const Window w = make_window(grid, p.centre, half);
+  check_footprint(p.index, double(std::max({w.m[0], w.m[1], w.m[2]})), double(w.m[0]) * double(w.m[1]) * double(w.m[2]));
   for (int d = 0; d < 3; ++d) {
     window_nodes(grid, w, d, s.nodes[d]);
     s.axis[d].resize(static_cast<std::size_t>(w.m[d]));
