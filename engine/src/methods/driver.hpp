@@ -16,6 +16,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include <algorithm>
 #include <cstdint>
 #include <limits>
 #include <span>
@@ -183,7 +184,7 @@ void apply_outside(Scratch& s, const Particle& p, double volume, Outside policy,
 inline void check_footprint(std::int64_t particle, double per_axis_max, double cells) {
   if (per_axis_max > double(1 << 20) || cells > double(1 << 26))
     throw Error(VFE_ERROR_INVALID_ARGUMENT,
-                "particle " + std::to_string(particle) + " spans " + std::to_string(static_cast<long long>(cells)) +
+                "particle " + std::to_string(particle) + " spans about " + std::to_string(std::min(cells, 1e300)) +
                     " cells (limit 2^26, 2^20 along one axis); use cells no smaller than about 1/400 of the "
                     "particle diameter, or a periodic grid larger than the particle");
 }
