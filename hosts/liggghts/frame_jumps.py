@@ -32,7 +32,7 @@ def main():
         ap.error("fewer than two frames from --from on")
     particles = [vfe.particles(f) for f in frames]
     d_mean = float(np.mean(2 * particles[0][1]))
-    crit = math.pi / 162  # DESIGN's default criterion: direct just stable at chi = 3
+    crit = math.pi / 162  # the default criterion of docs/design.md section 8: direct just stable at chi = 3
     rows = []
     for h in (float(v) for v in a.cells.split(",")):
         cells = [round((box[3 + i] - box[i]) / h) for i in range(3)]

@@ -616,7 +616,7 @@ PYBIND11_MODULE(_core, m) {
         "shape, reference_grid. Returns a dict with 'results', one row (dict) per particle grid.");
   m.def("compare_fields", &compare_fields, py::arg("solid"), py::arg("solid_exact"), py::arg("cell_volumes"),
         py::arg("particle_volume"),
-        "Accuracy of a solid-volume field against the exact one (DESIGN section 5): theta, max_error, l1, "
+        "Accuracy of a solid-volume field against the exact one (docs/design.md section 8): theta, max_error, l1, "
         "volume_error, cells_compared.");
   m.attr("DEFAULT_JUMP_CRITERION") = vfe::kDefaultJumpCriterion;
 }

@@ -105,7 +105,7 @@ TEST(Engine, DirectEqualsPmmWithOneSubElement) {
 }
 
 TEST(Engine, PmmConvergesToExactAsTheParticleGridGrows) {
-  // L1 error (DESIGN section 5) against the exact overlap falls as a power of n.
+  // L1 error (docs/design.md section 8) against the exact overlap falls as a power of n.
   Engine e(grid(1.0, 12, 12, 12));
   const Particles p = random_particles(400, 12.0, 0.5, 0.5, 4);  // chi = 1
   const auto exact = run(e, p, "method=exact");

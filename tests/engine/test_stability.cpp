@@ -1,4 +1,4 @@
-// Stability stress test (DESIGN section 5): the jump bound of the default template, the
+// Stability stress test (docs/design.md section 8): the jump bound of the default template, the
 // effect of template rotation, auto's stability between the sweep's chi values, and the
 // direct method's threshold at chi = 3.
 #include <vfe/engine.hpp>

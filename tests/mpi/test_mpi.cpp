@@ -211,7 +211,7 @@ TEST(DistributedCartesian, EqualsSerialEngineForEveryMethodAndDecomposition) {
       }
 }
 
-// deterministic=1: DESIGN asks for bitwise equality with the serial engine. The engine's sorted
+// deterministic=1: The distributed-mesh contract asks for bitwise equality with the serial engine. The engine's sorted
 // sum is deterministic for one mesh, but a cell's sum here is the owner's partial sum plus its
 // neighbours' (another order), so equality is to round-off; the test measures and prints it.
 TEST(DistributedCartesian, DeterministicEqualsSerialToRoundOff) {

@@ -7,7 +7,7 @@
  * neighbours only). Owned-cell fields then equal the serial engine's on the undecomposed
  * grid given the same particles with the same ids.
  *
- * Deviation from DESIGN 3b: vfe_engine is opaque inside libvfe, which stays free of MPI, so
+ * Deviation from the distributed-mesh contract (docs/scaling.md): vfe_engine is opaque inside libvfe, which stays free of MPI, so
  * the distributed engine is its own handle, vfe_mpi_engine, with vfe_mpi_* equivalents of
  * the vfe_* calls. Functions marked "collective" must be called by every rank of the
  * communicator, in the same order, with the same options; their status is the same on
