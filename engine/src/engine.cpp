@@ -482,9 +482,10 @@ struct Engine::Impl {
     have_field = true;
     report = rep;
     std::copy(field().begin(), field().end(), out.begin());
-    log->info("computed {} particles with {} on a {}{}: {} moved, {} sub-elements, {} on the fast path, {} outside",
-              pa.n, to_string(opts.method), mesh.kind_name(), lattice_note(), acc.moved(), rep.sub_elements,
-              rep.fast_path_particles, rep.outside_particles);
+    if (log->should_log(spdlog::level::info))  // the note allocates: steady-state computes must not
+      log->info("computed {} particles with {} on a {}{}: {} moved, {} sub-elements, {} on the fast path, {} outside",
+                pa.n, to_string(opts.method), mesh.kind_name(), lattice_note(), acc.moved(), rep.sub_elements,
+                rep.fast_path_particles, rep.outside_particles);
   }
 
   /// How the polyMesh's box lattice served this compute ("" when it did not).
