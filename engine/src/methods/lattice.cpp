@@ -1,6 +1,7 @@
 #include "methods/lattice.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 namespace vfe::detail {
 
@@ -48,8 +49,9 @@ LatticeBoundary lattice_boundary(Method m, const BoxLattice& lattice) {
     case Method::pmm:
     case Method::divided: return lattice.cartesian ? LatticeBoundary::grid : LatticeBoundary::polymesh;
     // The polyMesh's drivers give what the cells do not hold, as one volume, to the cell
-    // nearest to the centre.
-    case Method::exact:
+    // nearest to the centre: so does the Cartesian grid's exact, while the separable
+    // kernels give each cell beyond a side to the cell along it.
+    case Method::exact: return lattice.cartesian ? LatticeBoundary::grid : LatticeBoundary::rest;
     case Method::gaussian:
     case Method::porous_cube: return LatticeBoundary::rest;
     // big_particle shares among the centres of real cells only.
@@ -73,6 +75,31 @@ LatticeContext lattice_context(const PolyContext& poly, const Context* cartesian
 }
 
 namespace {
+
+/// Lattice index of the cell whose centre is nearest to x (as KdTreeLocator::nearest_cell,
+/// but for ties). Distances separate by axis, so per axis: on evenly spaced nodes the
+/// clamped cell; on graded ones the nearest of that cell's and its neighbours' centres.
+std::int64_t nearest_centre(const BoxLattice& lattice, const Eigen::Vector3d& x) {
+  if (lattice.cartesian) return lattice.cartesian->nearest(x);
+  const RectilinearGrid& grid = *lattice.rectilinear;
+  std::int64_t at[3];
+  for (int d = 0; d < 3; ++d) {
+    const std::vector<double>& nodes = grid.nodes(d);
+    const std::int64_t n = grid.cells()[d];
+    const std::int64_t i = std::clamp<std::int64_t>(grid.axis_index(d, x[d]), 0, n - 1);
+    const auto distance = [&](std::int64_t k) {
+      return std::abs(x[d] - 0.5 * (nodes[static_cast<std::size_t>(k)] + nodes[static_cast<std::size_t>(k + 1)]));
+    };
+    at[d] = i;
+    for (const std::int64_t k : {i - 1, i + 1})
+      if (k >= 0 && k < n && distance(k) < distance(at[d])) at[d] = k;
+  }
+  return grid.index(at[0], at[1], at[2]);
+}
+
+std::int64_t locate(const BoxLattice& lattice, const Eigen::Vector3d& x) {
+  return lattice.cartesian ? lattice.cartesian->locate(x) : lattice.rectilinear->locate(x);
+}
 
 void grid_driver(const LatticeContext& ctx, Scratch& s, const Particle& p) {
   if (ctx.cartesian)
@@ -119,8 +146,14 @@ void lattice_particle(const LatticeContext& ctx, Scratch& s, const Particle& p) 
     return true;
   });
   if (!(rest > 1e-12 * p.volume)) return;  // round-off, as the polyMesh's drivers take it
+  // outside_poly's cells, from the lattice instead of the polyMesh's locators.
+  const std::int64_t* map = ctx.lattice.cell_map.data();
+  const auto nearest = [&] { return map[nearest_centre(ctx.lattice, p.centre)]; };
   bool flagged = false;
-  outside_poly(ctx.poly, s, p, rest, p.centre, ctx.poly.locator->locate(p.centre), flagged, p.outside);
+  apply_outside(s, p, rest, p.outside, dropped_slot, flagged, nearest, [&] {
+    const std::int64_t cell = locate(ctx.lattice, p.centre);
+    return cell >= 0 ? map[cell] : nearest();
+  });
 }
 
 }  // namespace vfe::detail
