@@ -5,6 +5,7 @@
 
 #include "accumulator.hpp"
 #include "engine_mesh.hpp"
+#include "methods/lattice.hpp"
 #include "methods/registry.hpp"
 #include "methods/shape_exact.hpp"
 #include "options.hpp"
@@ -554,9 +555,25 @@ struct Engine::Impl {
       case MeshKind::rectilinear:
         run(detail::RectilinearContext{common, *mesh.rectilinear()}, drivers.rectilinear, pa, pl);
         break;
-      case MeshKind::polyhedral:
-        run(detail::PolyContext{common, mesh.locator()}, drivers.polyhedral, pa, pl);
+      case MeshKind::polyhedral: {
+        const detail::PolyContext poly{common, mesh.locator()};
+        const detail::BoxLattice* lattice = opts.lattice ? mesh.lattice() : nullptr;
+        if (!lattice) {
+          run(poly, drivers.polyhedral, pa, pl);
+          break;
+        }
+        // The grid of the same cells, with the polyMesh's driver for particles near its boundary.
+        std::optional<detail::Context> cartesian;
+        std::optional<detail::RectilinearContext> rectilinear;
+        if (lattice->cartesian)
+          cartesian.emplace(detail::Context{common, *lattice->cartesian});
+        else
+          rectilinear.emplace(detail::RectilinearContext{common, *lattice->rectilinear});
+        run(detail::lattice_context(poly, cartesian ? &*cartesian : nullptr, rectilinear ? &*rectilinear : nullptr,
+                                    *lattice),
+            detail::lattice_particle, pa, pl);
         break;
+      }
     }
     Report rep;
     try {
@@ -597,9 +614,25 @@ struct Engine::Impl {
     for (const Scratch& sc : scratch) counted_particles += sc.counted;
     fused_pass = fused;  // validation and deposits in one pass
     std::copy(field().begin(), field().end(), out.begin());
-    log->info("computed {} particles with {} on a {}: {} moved, {} sub-elements, {} on the fast path, {} outside",
-              pa.n, to_string(opts.method), mesh.kind_name(), acc.moved(), rep.sub_elements, rep.fast_path_particles,
-              rep.outside_particles);
+    if (log->should_log(spdlog::level::info))  // the note allocates: steady-state computes must not
+      log->info("computed {} particles with {} on a {}{}: {} moved, {} sub-elements, {} on the fast path, {} outside",
+                pa.n, to_string(opts.method), mesh.kind_name(), lattice_note(), acc.moved(), rep.sub_elements,
+                rep.fast_path_particles, rep.outside_particles);
+  }
+
+  /// How the polyMesh's box lattice served this compute ("" when it did not).
+  std::string lattice_note() const {
+    const detail::BoxLattice* l = mesh.lattice();
+    if (!l) return "";
+    std::ostringstream note;
+    note << " (a lattice of " << l->cells[0] << " x " << l->cells[1] << " x " << l->cells[2] << " box cells, "
+         << (l->cartesian ? "uniform" : "graded");
+    if (opts.lattice)
+      note << ": " << lattice_particles << " particles on the " << (l->cartesian ? "Cartesian" : "rectilinear")
+           << " grid's path)";
+    else
+      note << ", not used: lattice=0)";
+    return note.str();
   }
 
   /// Particle p as the drivers see it.
@@ -767,6 +800,7 @@ struct Engine::Impl {
   /// failure: callers call it before they change the field.
   Report gather_report(const ParticleArrays& pa, double particle_volume_sum) {
     Report rep{};
+    lattice_particles = 0;
     rep.particles = pa.n;
     rep.particle_volume = particle_volume_sum;
     rep.particle_grid_min = std::numeric_limits<std::int64_t>::max();
@@ -775,6 +809,7 @@ struct Engine::Impl {
       rep.fast_path_particles += s.fast_path;
       rep.sub_elements += s.sub_elements;
       rep.outside_particles += s.outside_particles;
+      lattice_particles += s.lattice_particles;
       rep.particle_grid_min = std::min(rep.particle_grid_min, s.grid_min);
       rep.particle_grid_max = std::max(rep.particle_grid_max, s.grid_max);
       first_error = std::min(first_error, s.first_error);
@@ -809,6 +844,8 @@ struct Engine::Impl {
   // validation and deposits ran as one pass.
   std::int64_t counted_particles = 0;
   bool fused_pass = false;
+  /// Particles of the last compute that the box lattice's grid path took.
+  std::int64_t lattice_particles = 0;
   void count_overfull() {
     overfull_cells = 0;
     overfull_volume = 0;
@@ -1027,6 +1064,8 @@ double Engine::last_report_value(std::string_view key) const {
       {"overfull_volume", impl_->overfull_volume},
       {"counted_particles", double(impl_->counted_particles)},
       {"fused_pass", impl_->fused_pass ? 1.0 : 0.0},
+      {"lattice_cells", impl_->mesh.lattice() ? double(impl_->mesh.cell_count()) : 0.0},
+      {"lattice_particles", double(impl_->have_field ? impl_->lattice_particles : 0)},
   };
   std::string known;
   for (const auto& [name, value] : facts) {
