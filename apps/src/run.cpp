@@ -236,9 +236,11 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
     std::vector<double> ref(ncells), solid(ncells), eps(ncells);
     const double cell_size = built.cube_root_of_mean_volume();
     const double chi = mean_d > 0 ? cell_size / mean_d : 0.0;
+    // A polyMesh of box cells computes on the grid of the same cells (option lattice).
+    const char* lattice_note = poly && engine->last_report_value("lattice_cells") > 0 ? ", a lattice of box cells" : "";
     if (poly || rectilinear)
-      log->info("mesh '{}': {} of {} cells, mean cell size {} (mean chi = {:.2f})", mesh.name,
-                poly ? "polyMesh" : "rectilinear grid", ncells, g3(cell_size), chi);
+      log->info("mesh '{}': {} of {} cells{}, mean cell size {} (mean chi = {:.2f})", mesh.name,
+                poly ? "polyMesh" : "rectilinear grid", ncells, lattice_note, g3(cell_size), chi);
     else
       log->info("mesh '{}': {} x {} x {} cells of {} (chi = {:.2f})", mesh.name, grid.cells[0], grid.cells[1],
                 grid.cells[2], g3(cell_size), chi);
@@ -417,10 +419,10 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
       char title[768];
       if (poly || rectilinear)
         std::snprintf(title, sizeof title,
-                      "\n%s / mesh %s: %s of %lld cells, mean cell size %s (mean chi = %.2f), %lld particles, "
+                      "\n%s / mesh %s: %s of %lld cells%s, mean cell size %s (mean chi = %.2f), %lld particles, "
                       "%d thread(s), median of %d, reference %s",
                       cfg.name.c_str(), mesh.name.c_str(), poly ? "polyMesh" : "rectilinear grid",
-                      static_cast<long long>(ncells), g3(cell_size).c_str(), chi,
+                      static_cast<long long>(ncells), lattice_note, g3(cell_size).c_str(), chi,
                       static_cast<long long>(frame.n), threads_used, repeats, reference_title.c_str());
       else
         std::snprintf(title, sizeof title,
