@@ -75,8 +75,8 @@ struct BenchRow {
   std::int64_t peak_rss_bytes = 0;  ///< of the process so far
   double speedup = 0;  ///< 1-thread time / this time; NaN without a 1-thread row
   /// The limits at the same (scene, N, chi, threads) and time_median_ms as a multiple of each.
-  double bandwidth_ms = 0, scatter_ms = 0, locate_ms = 0;
-  double x_bandwidth = 0, x_scatter = 0, x_locate = 0;
+  double bandwidth_ms = 0, store_ms = 0, scatter_ms = 0, locate_ms = 0;
+  double x_bandwidth = 0, x_store = 0, x_scatter = 0, x_locate = 0;
 };
 
 /// The limits of one (particles, chi, threads).
@@ -87,6 +87,8 @@ struct BenchLimit {
   std::int64_t cells = 0;
   double bandwidth_ms = 0;  ///< read centres and radii, clear the cell field
   std::int64_t bandwidth_bytes = 0;
+  /// direct's floor: read each centre and radius, add the volume to the centre's cell.
+  double store_ms = 0;
   /// Every sub-element of pmm's template for each particle: its cell index, then its volume
   /// added to the field (scatter) or only the indices summed (locate).
   double scatter_ms = 0, locate_ms = 0;

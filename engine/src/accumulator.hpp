@@ -81,6 +81,24 @@ class Accumulator {
   template <class ParticleFn, class MovedFn>
   void deposit(tbb::task_arena& arena, tbb::enumerable_thread_specific<Scratch>& scratch, const AccumulationPlan& plan,
                std::int64_t n, ParticleFn&& particle, MovedFn&& moved);
+  /// Phase 1 by the caller's own pass over the particles, adding into the threads' private
+  /// fields (a fused validate-and-deposit loop): pass(thread_field) where thread_field()
+  /// gives this thread's field of cells + 1 values (the last: the dropped slot). Needs a
+  /// privatised plan without blocks or touched_only. Returns what pass returns; when pass
+  /// throws, what it added is cleared.
+  template <class Pass>
+  auto deposit_private(const AccumulationPlan& plan, std::int64_t n, Pass&& pass) {
+    plan_ = plan;
+    n_ = n;
+    pending_ = true;
+    private_dirty_ = true;
+    try {
+      return pass([this] { return private_field().field.data(); });
+    } catch (...) {
+      abandon();
+      throw;
+    }
+  }
   /// Drops phase 1's results (a check after phase 1 failed).
   void abandon();
   /// Phase 2: makes phase 1's deposits the committed field.

@@ -292,60 +292,30 @@ struct Engine::Impl {
     return sphere_volume(r);
   }
 
-  Validation validate(const ParticleArrays& pa) {
-    const Validation v = arena->execute([&] {
+  /// The box spheres must stay within (validation's geometric outside count).
+  detail::SphereBounds sphere_bounds() const {
+    detail::SphereBounds b;
+    const Eigen::AlignedBox3d box = mesh.bounds();
+    for (int d = 0; d < 3; ++d) {
+      const bool open = mesh.kind() == MeshKind::polyhedral || ((mesh.periodic() >> d) & 1u);
+      b.lo[d] = open ? -std::numeric_limits<double>::infinity() : box.min()[d] - opts.outside_tolerance;
+      b.hi[d] = open ? std::numeric_limits<double>::infinity() : box.max()[d] + opts.outside_tolerance;
+    }
+    return b;
+  }
+
+  static constexpr std::int64_t kChunk = 256;  ///< particles checked, then deposited, at a time
+
+  /// The particles' validation: body(range, acc) checks a range of particles into acc. The
+  /// reduction tree is fixed (blocks of 4096, halved), so the sums are the same for any
+  /// thread count and any body that adds the same particles in order.
+  template <class Body>
+  Validation reduce_particles(std::int64_t n, Body&& body) {
+    return arena->execute([&] {
       return tbb::parallel_deterministic_reduce(
-          tbb::blocked_range<std::int64_t>(0, pa.n, 4096), Validation{},
+          tbb::blocked_range<std::int64_t>(0, n, 4096), Validation{},
           [&](const tbb::blocked_range<std::int64_t>& r, Validation acc) {
-            const bool given = opts.orientation == Orientation::given;
-            // On a grid "outside" is geometric, the same for every method: the sphere reaches
-            // beyond the grid's box (on a non-periodic axis) by more than outside_tolerance.
-            const bool grid = mesh.kind() != MeshKind::polyhedral;
-            const Eigen::AlignedBox3d box = mesh.bounds();
-            const double tol = opts.outside_tolerance;
-            const auto nshapes = static_cast<std::int32_t>(shapes.size());
-            for (std::int64_t p = r.begin(); p < r.end(); ++p) {
-              const double* c = reinterpret_cast<const double*>(pa.centres + p * pa.centres_stride);
-              const double rad = pa.radius(p);
-              bool sphere = true;
-              double vol;
-              if (pa.shape_ids) {
-                const std::int32_t id = pa.shape_id(p);
-                if (id < 0 || id >= nshapes) {
-                  acc.first_bad = std::min(acc.first_bad, p);
-                  continue;
-                }
-                sphere = shapes[id].is_sphere;
-                vol = sphere ? sphere_volume(rad) : shapes[id].shape.volume() * rad * rad * rad;
-              } else {
-                vol = sphere_volume(rad);
-              }
-              // One comparison chain settles NaN, infinities, r <= 0 and volumes doubles
-              // cannot hold (every comparison with NaN is false).
-              bool ok = std::abs(c[0]) + std::abs(c[1]) + std::abs(c[2]) + rad < 1e300 && rad > 0 &&
-                        vol >= std::numeric_limits<double>::min() && vol < 1e300;
-              if (ok && given) {
-                const double* q = pa.orientation(p);
-                const double nn = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
-                ok = std::isfinite(nn) && nn > 0;
-              }
-              if (!ok) {
-                acc.first_bad = std::min(acc.first_bad, p);
-                continue;
-              }
-              acc.volume += vol;
-              if (sphere) {
-                acc.d_min = std::min(acc.d_min, 2 * rad);
-                acc.d_max = std::max(acc.d_max, 2 * rad);
-                if (grid) {
-                  bool out = false;
-                  for (int d = 0; d < 3; ++d)
-                    out |= !((mesh.periodic() >> d) & 1u) &&
-                           (c[d] - rad < box.min()[d] - tol || c[d] + rad > box.max()[d] + tol);
-                  acc.beyond += out;
-                }
-              }
-            }
+            body(r, acc);
             return acc;
           },
           [](Validation a, const Validation& b) {
@@ -358,13 +328,169 @@ struct Engine::Impl {
           },
           tbb::simple_partitioner());
     });
+  }
+
+  /// Throws for the first bad particle or a total volume doubles cannot hold.
+  void check_validation(const ParticleArrays& pa, const Validation& v) const {
     if (v.first_bad != std::numeric_limits<std::int64_t>::max())
       throw Error(VFE_ERROR_INVALID_ARGUMENT,
                   "particle " + std::to_string(v.first_bad) + ": " + particle_problem(pa, v.first_bad));
     if (!std::isfinite(v.volume))
       throw Error(VFE_ERROR_INVALID_ARGUMENT,
                   "the particles' total volume overflows doubles; pass sizes in smaller units");
+  }
+
+  Validation validate(const ParticleArrays& pa) {
+    const detail::SphereBounds bounds = sphere_bounds();
+    const bool given = opts.orientation == Orientation::given;
+    if (!pa.shape_ids && !given) {  // spheres only: the tight loop of the fused passes
+      const Validation v = reduce_particles(pa.n, [&](const tbb::blocked_range<std::int64_t>& r, Validation& acc) {
+        double volumes[kChunk];
+        for (std::int64_t first = r.begin(); first < r.end(); first += kChunk)
+          detail::check_spheres(pa, first, std::min(kChunk, r.end() - first), bounds, acc, volumes);
+      });
+      check_validation(pa, v);
+      return v;
+    }
+    const auto nshapes = static_cast<std::int32_t>(shapes.size());
+    const Validation v = reduce_particles(pa.n, [&](const tbb::blocked_range<std::int64_t>& r, Validation& acc) {
+      for (std::int64_t p = r.begin(); p < r.end(); ++p) {
+        const double* c = reinterpret_cast<const double*>(pa.centres + p * pa.centres_stride);
+        const double rad = pa.radius(p);
+        bool sphere = true;
+        double vol;
+        if (pa.shape_ids) {
+          const std::int32_t id = pa.shape_id(p);
+          if (id < 0 || id >= nshapes) {
+            acc.first_bad = std::min(acc.first_bad, p);
+            continue;
+          }
+          sphere = shapes[id].is_sphere;
+          vol = sphere ? sphere_volume(rad) : shapes[id].shape.volume() * rad * rad * rad;
+        } else {
+          vol = sphere_volume(rad);
+        }
+        bool ok = detail::particle_values_ok(c, rad, vol);
+        if (ok && given) {
+          const double* q = pa.orientation(p);
+          const double nn = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
+          ok = std::isfinite(nn) && nn > 0;
+        }
+        if (!ok) {
+          acc.first_bad = std::min(acc.first_bad, p);
+          continue;
+        }
+        acc.volume += vol;
+        if (sphere) {
+          acc.d_min = std::min(acc.d_min, 2 * rad);
+          acc.d_max = std::max(acc.d_max, 2 * rad);
+          acc.beyond += bounds.beyond(c, rad);
+        }
+      }
+    });
+    check_validation(pa, v);
     return v;
+  }
+
+  /// direct on a Cartesian grid with spheres and private fields: validation, locate and the
+  /// add in one pass over the particles, so direct costs little more than reading them.
+  bool fuses_direct(const ParticleArrays& pa, const detail::AccumulationPlan& pl) const {
+    return opts.method == Method::direct && mesh.kind() == MeshKind::cartesian && !pa.shape_ids &&
+           opts.orientation != Orientation::given && pl.strategy == Accumulation::privatised && !pl.uses_blocks() &&
+           !pl.touched_only;
+  }
+
+  /// The fused pass: the same Validation as validate() (the same tree, the same particles in
+  /// order) and the same cells as direct_particle; a particle whose centre lies outside the
+  /// grid goes through the driver (the outside policy). Throws validate()'s errors, and the
+  /// accumulator drops what the pass deposited.
+  Validation fused_direct(const ParticleArrays& pa, const detail::AccumulationPlan& pl) {
+    return mesh.periodic() ? fused_direct<true>(pa, pl) : fused_direct<false>(pa, pl);
+  }
+  template <bool kPeriodic>
+  Validation fused_direct(const ParticleArrays& pa, const detail::AccumulationPlan& pl) {
+    const CartesianGrid& grid = *mesh.cartesian();
+    const detail::Context ctx{detail::MethodContext{opts, detail::TemplateBank{}, divided}, grid};
+    const detail::SphereBounds bounds = sphere_bounds();
+    return acc.deposit_private(pl, pa.n, [&](auto&& thread_field) {
+      const Validation v = reduce_particles(pa.n, [&](const tbb::blocked_range<std::int64_t>& r, Validation& a) {
+        Scratch& s = scratch.local();
+        double* const field = thread_field();
+        // Everything the deposit loop reads, in locals: the stores into field could alias
+        // any double behind a reference, which would make the compiler reload it each time.
+        const char* const centres = pa.centres;
+        const std::int64_t cs = pa.centres_stride;
+        const double o0 = grid.origin()[0], o1 = grid.origin()[1], o2 = grid.origin()[2];
+        const double i0 = 1.0 / grid.spacing()[0], i1 = 1.0 / grid.spacing()[1], i2 = 1.0 / grid.spacing()[2];
+        const double n0 = double(grid.cells()[0]), n1 = double(grid.cells()[1]), n2 = double(grid.cells()[2]);
+        const std::int64_t nx = grid.cells()[0], nxy = nx * grid.cells()[1];
+        // Chunks, two loops each: the checks, then the deposits, which read the chunk again
+        // from L1. One loop doing both holds more values than x86-64 has registers.
+        double volumes[kChunk];
+        for (std::int64_t first = r.begin(); first < r.end(); first += kChunk) {
+          const std::int64_t count = std::min(kChunk, r.end() - first);
+          detail::check_spheres(pa, first, count, bounds, a, volumes);
+          for (std::int64_t k = 0; k < count; ++k) {
+            const double* c = reinterpret_cast<const double*>(centres + (first + k) * cs);
+            const double vol = volumes[k];
+            if (vol == 0) continue;  // a bad particle: the compute fails
+            ++s.sub_elements;
+            double x0 = c[0], x1 = c[1], x2 = c[2];
+            if constexpr (kPeriodic) {
+              const Eigen::Vector3d w = mesh.wrap(Eigen::Vector3d(x0, x1, x2));
+              x0 = w[0], x1 = w[1], x2 = w[2];
+            }
+            // grid.locate: floor((x - o) / h) in [0, n) per axis; on [0, n) floor is truncation.
+            const double t0 = (x0 - o0) * i0, t1 = (x1 - o1) * i1, t2 = (x2 - o2) * i2;
+            if ((t0 >= 0) & (t0 < n0) & (t1 >= 0) & (t1 < n1) & (t2 >= 0) & (t2 < n2)) [[likely]] {
+              field[static_cast<std::int64_t>(t0) + nx * static_cast<std::int64_t>(t1) +
+                    nxy * static_cast<std::int64_t>(t2)] += vol;
+              continue;
+            }
+            s.deposits.clear();
+            --s.sub_elements;  // the driver counts the particle again
+            detail::direct_particle(ctx, s, particle(pa, first + k));
+            for (const Deposit& d : s.deposits) field[d.cell] += d.volume;
+          }
+        }
+      });
+      check_validation(pa, v);
+      return v;
+    });
+  }
+
+  /// pmm on a Cartesian grid (no periodic axis) with spheres and private fields: each
+  /// particle's fast path or octant count (methods/driver.hpp, pmm_sphere_quick) adds
+  /// straight into the thread's field; a particle that takes neither goes through the
+  /// driver. The same cells as the general loop, with less per particle around them.
+  bool fuses_pmm(const ParticleArrays& pa, const detail::AccumulationPlan& pl) const {
+    return opts.method == Method::pmm && mesh.kind() == MeshKind::cartesian && !pa.shape_ids && !mesh.periodic() &&
+           opts.orientation != Orientation::given && opts.fast_path && pl.strategy == Accumulation::privatised &&
+           !pl.uses_blocks() && !pl.touched_only;
+  }
+
+  void fused_pmm(const ParticleArrays& pa, const detail::AccumulationPlan& pl, const detail::TemplateBank& bank) {
+    const detail::Context ctx{detail::MethodContext{opts, bank, divided}, *mesh.cartesian()};
+    acc.deposit_private(pl, pa.n, [&](auto&& thread_field) {
+      arena->execute([&] {
+        tbb::parallel_for(tbb::blocked_range<std::int64_t>(0, pa.n, 256), [&](const tbb::blocked_range<std::int64_t>& r) {
+          Scratch& s = scratch.local();
+          double* const field = thread_field();
+          auto add = [field](std::int64_t cell, double v) { field[cell] += v; };
+          for (std::int64_t p = r.begin(); p < r.end(); ++p) {
+            __builtin_prefetch(pa.centres + (p + 16) * pa.centres_stride);
+            __builtin_prefetch(pa.radii + (p + 16) * pa.radii_stride);
+            const double radius = pa.radius(p);
+            detail::Particle part{p, pa.centre(p), radius, sphere_volume(radius), nullptr, pa.rotation_key(p)};
+            if (detail::pmm_sphere_quick(ctx, s, part, add)) continue;
+            s.deposits.clear();
+            detail::pmm_particle(ctx, s, particle(pa, p));
+            for (const Deposit& d : s.deposits) add(d.cell, d.volume);
+          }
+        });
+      });
+      return 0;
+    });
   }
 
   // --- accumulation plan ----------------------------------------------------------------
@@ -407,19 +533,22 @@ struct Engine::Impl {
                   "orientation=given needs orientations (4n quaternions w, x, y, z); pass them or "
                   "set orientation=random");
 
-    const Validation v = validate(pa);
+    const detail::AccumulationPlan pl = plan(pa.n);
+    for (Scratch& sc : scratch) sc.reset_counters();
+    const bool fused = fuses_direct(pa, pl);
+    const Validation v = fused ? fused_direct(pa, pl) : validate(pa);
     const detail::TemplateBank bank =
         templates.prepare(opts, v.d_min, v.d_max, mesh.smallest_cell_volume(), mesh.largest_cell_volume());
     if (opts.method == Method::pmm && !bank.fixed && !bank.templates.empty())
       log->info("particle_grid=auto: {} to {} sub-elements per particle", bank.templates.front()->size(),
                 bank.templates.back()->size());
     prepare_shapes(pa);
-    const detail::AccumulationPlan pl = plan(pa.n);
-    for (Scratch& s : scratch) s.reset_counters();
 
     const detail::MethodDrivers& drivers = detail::method_drivers(opts.method);
     const detail::MethodContext common{opts, bank, divided};
-    switch (mesh.kind()) {
+    const bool fused_particles = !fused && fuses_pmm(pa, pl);
+    if (fused_particles) fused_pmm(pa, pl, bank);
+    if (!fused && !fused_particles) switch (mesh.kind()) {
       case MeshKind::cartesian:
         run(detail::Context{common, *mesh.cartesian()}, drivers.cartesian, pa, pl);
         break;
@@ -481,6 +610,9 @@ struct Engine::Impl {
       rep.outside_particles = acc.outside_particles();
     have_field = true;
     report = rep;
+    counted_particles = 0;
+    for (const Scratch& sc : scratch) counted_particles += sc.counted;
+    fused_pass = fused;  // validation and deposits in one pass
     std::copy(field().begin(), field().end(), out.begin());
     if (log->should_log(spdlog::level::info))  // the note allocates: steady-state computes must not
       log->info("computed {} particles with {} on a {}{}: {} moved, {} sub-elements, {} on the fast path, {} outside",
@@ -503,6 +635,27 @@ struct Engine::Impl {
     return note.str();
   }
 
+  /// Particle p as the drivers see it.
+  detail::Particle particle(const ParticleArrays& pa, std::int64_t p) const {
+    const double r = pa.radius(p);
+    detail::Particle part{p, mesh.wrap(pa.centre(p)), r, 0.0, pa.orientation(p), pa.rotation_key(p)};
+    if (pa.shape_ids && !shapes[pa.shape_id(p)].is_sphere) {
+      const RegisteredShape& sh = shapes[pa.shape_id(p)];
+      part.volume = sh.shape.volume() * r * r * r;
+      if (sh.variants) part.shape_template = (*sh.variants)[shape_variant(part.rotation_key)].get();
+      part.centroid = sh.shape.centroid();
+      part.shape = &sh.shape;
+      part.shaped = true;
+    } else {
+      part.volume = sphere_volume(r);
+    }
+    part.outside = opts.outside;
+    // outside=error with a tolerance: a particle within it of the mesh goes to the nearest cells.
+    if (opts.outside == Outside::error && opts.outside_tolerance > 0 && within_tolerance(part))
+      part.outside = Outside::nearest;
+    return part;
+  }
+
   /// Phase 1 with the mesh kind's context: particles turn into deposits.
   template <class MeshContext>
   void run(const MeshContext& ctx, detail::DriverFn<MeshContext> driver, const ParticleArrays& pa,
@@ -510,26 +663,8 @@ struct Engine::Impl {
     if (!driver)  // configure refuses this; a mesh kind without the driver never gets here
       throw Error(VFE_ERROR_UNSUPPORTED, "method=" + std::string(to_string(opts.method)) + " is not available on a " +
                                              mesh.kind_name() + "; " + detail::method_drivers(opts.method).instead);
-    const bool with_shapes = pa.shape_ids != nullptr;
-    const bool tolerant = opts.outside == Outside::error && opts.outside_tolerance > 0;
-    auto particle = [&](Scratch& s, std::int64_t p) {
-      const double r = pa.radius(p);
-      detail::Particle part{p, mesh.wrap(pa.centre(p)), r, 0.0, pa.orientation(p), pa.rotation_key(p)};
-      if (with_shapes && !shapes[pa.shape_id(p)].is_sphere) {
-        const RegisteredShape& sh = shapes[pa.shape_id(p)];
-        part.volume = sh.shape.volume() * r * r * r;
-        if (sh.variants) part.shape_template = (*sh.variants)[shape_variant(part.rotation_key)].get();
-        part.centroid = sh.shape.centroid();
-        part.shape = &sh.shape;
-        part.shaped = true;
-      } else {
-        part.volume = sphere_volume(r);
-      }
-      part.outside = opts.outside;
-      if (tolerant && within_tolerance(part)) part.outside = Outside::nearest;
-      driver(ctx, s, part);
-    };
-    acc.deposit(*arena, scratch, pl, pa.n, particle, [&](std::int64_t p) { return moved(pa, p); });
+    auto body = [&](Scratch& s, std::int64_t p) { driver(ctx, s, particle(pa, p)); };
+    acc.deposit(*arena, scratch, pl, pa.n, body, [&](std::int64_t p) { return moved(pa, p); });
   }
 
   /// outside=error with a tolerance: true when the particle, shrunk by outside_tolerance,
@@ -705,6 +840,10 @@ struct Engine::Impl {
   /// particles under a point method).
   std::int64_t overfull_cells = 0;
   double overfull_volume = 0;
+  // Which paths the last compute took: pmm's particles counted per octant, and whether
+  // validation and deposits ran as one pass.
+  std::int64_t counted_particles = 0;
+  bool fused_pass = false;
   /// Particles of the last compute that the box lattice's grid path took.
   std::int64_t lattice_particles = 0;
   void count_overfull() {
@@ -923,6 +1062,8 @@ double Engine::last_report_value(std::string_view key) const {
       {"touched_cells", impl_->have_field && touched ? double(touched->size()) : -1.0},
       {"overfull_cells", double(impl_->overfull_cells)},
       {"overfull_volume", impl_->overfull_volume},
+      {"counted_particles", double(impl_->counted_particles)},
+      {"fused_pass", impl_->fused_pass ? 1.0 : 0.0},
       {"lattice_cells", impl_->mesh.lattice() ? double(impl_->mesh.cell_count()) : 0.0},
       {"lattice_particles", double(impl_->have_field ? impl_->lattice_particles : 0)},
   };

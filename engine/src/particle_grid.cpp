@@ -1,5 +1,7 @@
 #include "particle_grid.hpp"
 
+#include <vfe/kernels/octant_split.hpp>
+
 #include <algorithm>
 #include <cmath>
 
@@ -43,6 +45,7 @@ const kernels::ParticleTemplate& TemplateCache::get(const Options& opts, std::in
       case TemplateFamily::fibonacci: slot = std::make_unique<kernels::ParticleTemplate>(kernels::make_fibonacci_template(ni)); break;
       case TemplateFamily::voxel: slot = std::make_unique<kernels::ParticleTemplate>(kernels::make_voxel_template(ni)); break;
     }
+    kernels::prepare_octant_split(*slot);
   }
   return *slot;
 }

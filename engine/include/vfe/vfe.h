@@ -173,6 +173,9 @@ VFE_API vfe_status vfe_last_report(const vfe_engine* e, vfe_report* out);
  *  "touched_cells" (cells with solid volume; with touched_only=1, else -1), "overfull_cells"
  *  and "overfull_volume" (cells whose solid volume exceeds their volume, eps < 0, and the
  *  excess: a scene that does not match the mesh, or cells smaller than the particles),
+ *  "counted_particles" (pmm: particles whose sub-elements were counted per octant of a window
+ *  of at most 2 x 2 x 2 cells instead of located one by one; the cells are the same),
+ *  "fused_pass" (1 when validation and deposits ran as one pass over the particles),
  *  "lattice_cells" (the cells of a polyMesh whose cells are a lattice of axis-aligned boxes,
  *  0 for other meshes) and "lattice_particles" (particles that took that lattice's grid
  *  path, option lattice=1). Unknown keys

@@ -6,21 +6,6 @@
 
 namespace vfe::detail {
 
-Window make_window(const CartesianGrid& grid, const Eigen::Vector3d& c, const Eigen::Vector3d& half) {
-  Window w;
-  for (int d = 0; d < 3; ++d) {
-    const std::int64_t n = grid.cells()[d];
-    if (grid.periodic(d)) {  // real coordinates; emit_window wraps them
-      w.lo[d] = grid.axis_index(d, c[d] - half[d]);
-      w.m[d] = grid.axis_index(d, c[d] + half[d]) - w.lo[d] + 1;
-      continue;
-    }
-    w.lo[d] = std::clamp<std::int64_t>(grid.axis_index(d, c[d] - half[d]), -1, n);
-    w.m[d] = std::clamp<std::int64_t>(grid.axis_index(d, c[d] + half[d]), -1, n) - w.lo[d] + 1;
-  }
-  return w;
-}
-
 void window_nodes(const CartesianGrid& grid, const Window& w, int d, std::vector<double>& nodes) {
   const std::int64_t n = grid.cells()[d];
   nodes.resize(static_cast<std::size_t>(w.m[d] + 1));
@@ -107,8 +92,7 @@ void deposit_points(const Context& ctx, Scratch& s, const Particle& p, const ker
   }
   s.sub_elements += static_cast<std::int64_t>(t.size());
   const Eigen::Vector3d inv_h = grid.spacing().cwiseInverse();
-  const Eigen::Matrix3d to_cells =
-      inv_h.asDiagonal() * (rotation ? *rotation : particle_rotation(ctx.opts, p)) * r;
+  const Eigen::Matrix3d R = rotation ? *rotation : particle_rotation(ctx.opts, p);
   Eigen::Vector3d base;
   for (int d = 0; d < 3; ++d) base[d] = grid.axis_coordinate(d, c[d]) - double(w.lo[d]);
   if (base.cwiseAbs().maxCoeff() > 0x1p40) {  // absurdly far from the mesh: one point
@@ -116,6 +100,9 @@ void deposit_points(const Context& ctx, Scratch& s, const Particle& p, const ker
     outside(ctx, s, p, p.volume, grid.nearest(c), flagged, policy);
     return;
   }
+  if (deposit_by_octants(ctx, s, p, t, R, w, base, [&](std::int64_t cell, double v) { s.deposits.push_back({cell, v}); }))
+    return;
+  const Eigen::Matrix3d to_cells = inv_h.asDiagonal() * R * r;
   if (w.size() > (std::size_t(1) << 26))
     throw Error(VFE_ERROR_INVALID_ARGUMENT,
                 "particle " + std::to_string(p.index) + " spans " + std::to_string(w.size()) +

@@ -9,6 +9,7 @@
 #include "options.hpp"
 #include "particle_grid.hpp"
 
+#include <vfe/kernels/octant_split.hpp>
 #include <vfe/kernels/particle_template.hpp>
 
 #include <vfe/error.hpp>
@@ -47,6 +48,7 @@ struct Scratch {
   std::vector<std::int32_t> cell_face_offsets, cell_face_points;
   std::vector<Eigen::Vector3d> mapped_points;    // exact shapes: a cell's vertices in the ellipsoid's frame
   std::int64_t fast_path = 0, sub_elements = 0, outside_particles = 0;
+  std::int64_t counted = 0;  ///< pmm: particles whose sub-elements were counted per octant
   std::int64_t lattice_particles = 0;  // polyMesh of box cells: particles the grid's driver took
   std::int64_t first_error = std::numeric_limits<std::int64_t>::max();
   std::int64_t grid_min = std::numeric_limits<std::int64_t>::max(), grid_max = 0;
@@ -106,7 +108,7 @@ struct Scratch {
   std::vector<std::int32_t> poly_bin_near;
 
   void reset_counters() {
-    fast_path = sub_elements = outside_particles = lattice_particles = grid_max = 0;
+    fast_path = sub_elements = outside_particles = lattice_particles = grid_max = counted = 0;
     first_error = grid_min = std::numeric_limits<std::int64_t>::max();
   }
 
@@ -199,7 +201,20 @@ struct Window {
   std::int64_t m[3];
   std::size_t size() const { return static_cast<std::size_t>(m[0] * m[1] * m[2]); }
 };
-Window make_window(const CartesianGrid& grid, const Eigen::Vector3d& centre, const Eigen::Vector3d& half);
+inline Window make_window(const CartesianGrid& grid, const Eigen::Vector3d& c, const Eigen::Vector3d& half) {
+  Window w;
+  for (int d = 0; d < 3; ++d) {
+    const std::int64_t n = grid.cells()[d];
+    if (grid.periodic(d)) {  // real coordinates; emit_window wraps them
+      w.lo[d] = grid.axis_index(d, c[d] - half[d]);
+      w.m[d] = grid.axis_index(d, c[d] + half[d]) - w.lo[d] + 1;
+      continue;
+    }
+    w.lo[d] = std::clamp<std::int64_t>(grid.axis_index(d, c[d] - half[d]), -1, n);
+    w.m[d] = std::clamp<std::int64_t>(grid.axis_index(d, c[d] + half[d]), -1, n) - w.lo[d] + 1;
+  }
+  return w;
+}
 
 /// Node coordinates of a window's cells along axis d in cell units (cell g spans [g, g+1]),
 /// m[d] + 1 values; the virtual cell below the mesh starts at -infinity and the one above
@@ -229,6 +244,69 @@ void deposit_points(const Context& ctx, Scratch& s, const Particle& p, const ker
 
 /// The rotation of particle p's template under the orientation option.
 Eigen::Matrix3d particle_rotation(const Options& opts, const Particle& p);
+
+/// deposit_points' counting path (kernels/octant_split.hpp) for a window of at most two
+/// cells per axis, all of them mesh cells: the cells of the straightforward locate (floor of
+/// base + (r / h) R q per axis, base the centre in cell units from the window's corner) with
+/// one comparison per point and split axis; sink(cell, volume) per cell reached. False,
+/// with nothing added, when it does not apply or float cannot decide a point: the caller
+/// then locates every point.
+template <class Sink>
+bool deposit_by_octants(const Context& ctx, Scratch& s, const Particle& p, const kernels::ParticleTemplate& t,
+                        const Eigen::Matrix3d& R, const Window& w, const Eigen::Vector3d& base, Sink&& sink) {
+  if (t.split_points.empty() || !ctx.opts.fast_path) return false;
+  const CartesianGrid& grid = ctx.grid;
+  unsigned split = 0;
+  double tau[3] = {0, 0, 0};
+  std::int64_t g[3][2];
+  for (int d = 0; d < 3; ++d) {
+    if (w.m[d] > 2) return false;
+    g[d][0] = grid.cell_axis(d, w.lo[d]);
+    g[d][1] = grid.cell_axis(d, w.lo[d] + w.m[d] - 1);
+    if (g[d][0] < 0 || g[d][1] < 0) return false;  // part of the window lies beyond the mesh
+    if (w.m[d] == 2) {
+      // base_d + (r / h_d) R_d . q >= 1  <=>  R_d . q >= (1 - base_d) / (r / h_d)
+      const double scale = p.radius / grid.spacing()[d];
+      if (!(scale > 1e-6)) return false;  // the guard band would be below double's resolution
+      split |= 1u << d;
+      tau[d] = (1.0 - base[d]) / scale;
+    }
+  }
+  std::int32_t counts[8];
+  if (!kernels::count_octants(t, R, split, tau, counts)) return false;
+  ++s.counted;
+  const double share = p.volume * t.fractions[0];
+  for (int o = 0; o < 8; ++o)
+    if (counts[o]) sink(grid.index(g[0][o & 1], g[1][(o >> 1) & 1], g[2][(o >> 2) & 1]), share * double(counts[o]));
+  return true;
+}
+
+/// pmm's two quick cases for a sphere whose window of cells lies in the mesh: the whole
+/// template in one cell (the fast path) or in at most 2 x 2 x 2 cells, counted per octant.
+/// Adds through sink(cell, volume) and counts as deposit_points does; false, with nothing
+/// added or counted, when neither applies (pmm_particle then does the general work).
+template <class Sink>
+bool pmm_sphere_quick(const Context& ctx, Scratch& s, const Particle& p, Sink&& sink) {
+  if (!ctx.opts.fast_path) return false;
+  const CartesianGrid& grid = ctx.grid;
+  const kernels::ParticleTemplate& t = ctx.template_for(p);
+  const Window w = make_window(grid, p.centre, Eigen::Vector3d::Constant(p.radius * t.reach));
+  if (w.size() == 1) {
+    const std::int64_t gi = grid.cell_axis(0, w.lo[0]), gj = grid.cell_axis(1, w.lo[1]), gk = grid.cell_axis(2, w.lo[2]);
+    if (gi < 0 || gj < 0 || gk < 0) return false;
+    s.count_grid(static_cast<std::int64_t>(t.size()));
+    ++s.fast_path;
+    sink(grid.index(gi, gj, gk), p.volume);
+    return true;
+  }
+  if (t.split_points.empty() || w.m[0] > 2 || w.m[1] > 2 || w.m[2] > 2) return false;
+  Eigen::Vector3d base;
+  for (int d = 0; d < 3; ++d) base[d] = grid.axis_coordinate(d, p.centre[d]) - double(w.lo[d]);
+  if (!deposit_by_octants(ctx, s, p, t, particle_rotation(ctx.opts, p), w, base, sink)) return false;
+  s.count_grid(static_cast<std::int64_t>(t.size()));
+  s.sub_elements += static_cast<std::int64_t>(t.size());
+  return true;
+}
 
 // One function per method: the particle's deposits into s (s.deposits is empty on entry).
 void direct_particle(const Context& ctx, Scratch& s, const Particle& p);

@@ -1,0 +1,41 @@
+// PMM by counting instead of scattering: when a particle's window of cells has at most two
+// cells per axis, a sub-element's cell is fixed by which side of each split plane (the face
+// between the two cells of an axis) its centroid lies on. Per split axis one comparison
+// per point gives a bit mask over the template, and the sub-elements of each of the eight
+// octants are a popcount of three masks. The comparisons run in float; a point too near a
+// plane for float to decide makes the caller locate that particle in double, so every
+// sub-element lands in the cell the straightforward locate gives it.
+#pragma once
+
+#include <vfe/kernels/particle_template.hpp>
+
+#include <Eigen/Core>
+
+#include <cstdint>
+
+namespace vfe::kernels {
+
+/// Points within this distance of a split plane (template units: the unit sphere) are
+/// left to double arithmetic. Float's error on R_d . q and on the threshold is below 1e-6.
+inline constexpr double kSplitGuard = 4e-6;
+
+/// Most points the counting path takes (64 words of 64); larger templates scatter.
+inline constexpr std::size_t kMaxSplitWords = 64;
+
+/// Fills t.split_points when every sub-element has the same share and the template has at
+/// most kMaxSplitWords x 64 points; otherwise leaves them empty.
+void prepare_octant_split(ParticleTemplate& t);
+
+/// Which code counts: the fastest the CPU runs (AVX2 + FMA on x86-64 when present), or the
+/// portable one (tests run both).
+enum class SplitPath { fastest, portable };
+
+/// Sub-elements per octant: point q (of t) is above the plane of axis d when
+/// R.row(d) . q >= tau[d], for each axis d with bit d set in `split`; axes not split put
+/// every point below. counts[bx + 2 by + 4 bz] receives the points on sides (bx, by, bz).
+/// Returns false (counts undefined) when some point lies within kSplitGuard of a split
+/// plane. Needs t.split_points and |tau[d]| <= 2.
+bool count_octants(const ParticleTemplate& t, const Eigen::Matrix3d& R, unsigned split, const double tau[3],
+                   std::int32_t counts[8], SplitPath path = SplitPath::fastest);
+
+}  // namespace vfe::kernels

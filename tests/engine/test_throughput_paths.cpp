@@ -1,0 +1,127 @@
+// The fast paths against the general ones they stand in for: pmm's counting per octant
+// against locating every sub-element (fast_path=0), and direct's fused validate-and-deposit
+// pass against the general particle loop (accumulation=atomic takes it). The general paths
+// are the references: a sub-element in another cell moves V/n, far above the tolerances.
+#include "particles.hpp"
+
+#include <vfe/kernels/particle_template.hpp>
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <random>
+
+namespace vfe::test {
+namespace {
+
+void expect_same_field(const std::vector<double>& a, const std::vector<double>& b, double tol, const std::string& what) {
+  ASSERT_EQ(a.size(), b.size());
+  int bad = 0;
+  for (std::size_t c = 0; c < a.size() && bad < 5; ++c)
+    if (!(std::abs(a[c] - b[c]) <= tol)) {
+      ADD_FAILURE() << what << ": cell " << c << ": " << a[c] << " against " << b[c];
+      ++bad;
+    }
+}
+
+/// Spheres of radius r whose template points (orientation=none: the template itself, of
+/// 45 points) lie within 1e-13 of a cell face: centre = face - r q_i (+- 1e-13) along one
+/// axis, the other axes random.
+Particles near_face_spheres(double h, int cells, double r, int count) {
+  const kernels::ParticleTemplate t = kernels::make_fibonacci_template(45);
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> pos(2 * h, (cells - 2) * h);
+  Particles p;
+  for (int i = 0; i < count; ++i) {
+    const Eigen::Vector3d& q = t.points[static_cast<std::size_t>(i) % t.size()];
+    double c[3] = {pos(rng), pos(rng), pos(rng)};
+    const int d = i % 3;
+    const double face = h * std::round(c[d] / h);
+    c[d] = face - r * q[d] + (i % 2 ? 1e-13 : -1e-13);
+    p.add(c[0], c[1], c[2], r);
+  }
+  return p;
+}
+
+TEST(PmmCounting, EveryCellEqualsLocatingEverySubElement) {
+  struct Case {
+    const char* name;
+    Particles p;
+    std::string options;
+  };
+  std::vector<Case> cases;
+  // chi = 4, 2 and 1 (radius 1/8, 1/4, 1/2 of the cell), random orientations.
+  for (const double r : {0.125, 0.25, 0.5}) cases.push_back({"random", random_spheres(11, 3000, 1.0, 9.0, r, r), ""});
+  cases.push_back({"polydisperse", random_spheres(12, 3000, 1.0, 9.0, 0.15, 0.5), ""});
+  cases.push_back({"near faces", near_face_spheres(1.0, 10, 0.25, 3000), " orientation=none particle_grid=45"});
+  cases.push_back({"near faces chi 1", near_face_spheres(1.0, 10, 0.5, 3000), " orientation=none particle_grid=45"});
+  cases.push_back({"beyond the grid", random_spheres(13, 2000, -0.5, 10.5, 0.2, 0.4), " outside=nearest"});
+  cases.push_back({"periodic", random_spheres(14, 2000, -0.5, 10.5, 0.2, 0.4), " periodic=xyz"});
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    Engine counting(grid(1.0, 10, 10, 10)), locating(grid(1.0, 10, 10, 10));
+    const std::vector<double> a = run(counting, c.p, "method=pmm threads=1" + c.options);
+    const std::vector<double> b = run(locating, c.p, "method=pmm threads=1 fast_path=0" + c.options);
+    const double v = c.p.volume() / double(c.p.radii.size());
+    expect_same_field(a, b, 1e-13 * v, c.name);
+    if (c.options.find("orientation=none") != std::string::npos)  // every particle has a point 1e-13 from a face
+      EXPECT_EQ(counting.last_report_value("counted_particles"), 0.0);
+    else
+      EXPECT_GT(counting.last_report_value("counted_particles"), 0.3 * double(c.p.radii.size()));
+    EXPECT_EQ(locating.last_report_value("counted_particles"), 0.0);
+    EXPECT_NEAR(total(a), c.p.volume(), 1e-12 * c.p.volume());
+    EXPECT_EQ(counting.last_report().outside_particles, locating.last_report().outside_particles);
+  }
+}
+
+TEST(FusedDirect, EqualsTheGeneralLoopUnderEveryOutsidePolicy) {
+  const Particles inside = random_spheres(21, 5000, 0.3, 9.7, 0.05, 0.3);
+  const Particles spilling = random_spheres(22, 5000, -1.0, 11.0, 0.05, 0.3);
+  for (const char* policy : {"nearest", "centre", "drop"})
+    for (const char* periodic : {"none", "x", "xyz"})
+      for (const Particles* p : {&inside, &spilling}) {
+        const std::string o = std::string("method=direct threads=2 outside=") + policy + " periodic=" + periodic;
+        SCOPED_TRACE(o);
+        Engine fused(grid(0.5, 20, 20, 20)), general(grid(0.5, 20, 20, 20));
+        const std::vector<double> a = run(fused, *p, o);
+        const std::vector<double> b = run(general, *p, o + " accumulation=atomic");
+        expect_same_field(a, b, 1e-15 * p->volume(), o);
+        EXPECT_EQ(fused.last_report_value("fused_pass"), 1.0);
+        EXPECT_EQ(general.last_report_value("fused_pass"), 0.0);
+        const Report& ra = fused.last_report();
+        const Report& rb = general.last_report();
+        EXPECT_EQ(ra.particle_volume, rb.particle_volume);  // the same reduction
+        EXPECT_EQ(ra.outside_particles, rb.outside_particles);
+        EXPECT_EQ(ra.sub_elements, rb.sub_elements);
+        EXPECT_NEAR(ra.dropped_volume, rb.dropped_volume, 1e-15 * p->volume());
+      }
+}
+
+TEST(FusedDirect, BadParticlesAndOutsideErrorsLeaveTheFieldAndTheNextComputeIntact) {
+  Particles p = random_spheres(23, 3000, 0.5, 9.5, 0.1, 0.3);
+  Engine e(grid(1.0, 10, 10, 10));
+  const std::vector<double> good = run(e, p, "method=direct");
+  Particles bad = p;
+  bad.radii[1234] = std::numeric_limits<double>::quiet_NaN();
+  std::vector<double> out(e.cell_count(), 7.0);
+  try {
+    e.compute(bad.view(), out);
+    FAIL() << "a NaN radius was accepted";
+  } catch (const Error& err) {
+    EXPECT_EQ(err.status(), VFE_ERROR_INVALID_ARGUMENT);
+    EXPECT_NE(std::string(err.what()).find("particle 1234"), std::string::npos) << err.what();
+  }
+  for (const double x : out) ASSERT_EQ(x, 7.0);  // nothing written
+  Particles outside = p;
+  outside.centres[3 * 99] = 20.0;
+  e.configure("outside=error");
+  EXPECT_THROW(e.compute(outside.view(), out), Error);
+  for (const double x : out) ASSERT_EQ(x, 7.0);
+  e.configure("outside=nearest");
+  e.compute(p.view(), out);
+  EXPECT_EQ(out, good);  // nothing of the failed computes remains
+}
+
+}  // namespace
+}  // namespace vfe::test
