@@ -377,6 +377,32 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
   return result;
 }
 
+void set_timesteps(SceneConfig& cfg, const std::string& range) {
+  const auto colon = range.find(':');
+  auto bound = [&](const std::string& text) -> std::optional<std::int64_t> {
+    if (text.empty()) return std::nullopt;
+    std::size_t used = 0;
+    std::int64_t v = 0;
+    try {
+      v = std::stoll(text, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used != text.size() || text.empty())
+      throw ConfigError("--timesteps " + range + ": '" + text + "' is not an integer timestep");
+    return v;
+  };
+  if (colon == std::string::npos)
+    throw ConfigError("--timesteps " + range + ": give FROM:TO, e.g. 16500:19500 or 24000: (either may be empty)");
+  if (!cfg.series)
+    throw ConfigError("--timesteps: " + cfg.source.string() +
+                      " has one frame; a series takes particles: {files: ...} or frames: all");
+  const auto from = bound(range.substr(0, colon)), to = bound(range.substr(colon + 1));
+  if (from && to && *to < *from) throw ConfigError("--timesteps " + range + ": TO is before FROM");
+  cfg.series->from_timestep = from;
+  cfg.series->to_timestep = to;
+}
+
 CliCommand register_run(CLI::App& app) {
   struct Args {
     std::string config_file;
@@ -386,6 +412,7 @@ CliCommand register_run(CLI::App& app) {
     bool quiet = false;
     bool vtk = false;
     bool foam = false;
+    std::string timesteps;
   };
   const auto args = std::make_shared<Args>();
   CLI::App* run = app.add_subcommand("run", "Compute, time and compare the methods of a YAML scene config");
@@ -404,8 +431,12 @@ CliCommand register_run(CLI::App& app) {
                 "Also write OpenFOAM fields <mesh>/0/voidfraction_<method> and <mesh>/0/voidfraction on "
                 "polyMesh meshes");
 
+  run->add_option("--timesteps", args->timesteps,
+                  "A series' timesteps FROM:TO, inclusive, either may be empty (replaces the config's 'timesteps')");
+
   return {run, [args] {
-    const SceneConfig cfg = load_config(args->config_file);
+    SceneConfig cfg = load_config(args->config_file);
+    if (!args->timesteps.empty()) set_timesteps(cfg, args->timesteps);
     RunOptions opt;
     if (!args->output.empty()) opt.output = args->output;
     if (args->threads >= 0) opt.threads = args->threads;

@@ -89,6 +89,10 @@ RunResult run_scene(const SceneConfig& config, const RunOptions& options);
 /// polymesh meshes. Throws as run_scene.
 RunResult run_series(const SceneConfig& config, const RunOptions& options);
 
+/// Replaces a series' timesteps range by "FROM:TO" (either may be empty: no bound), as
+/// `vfe run --timesteps` does. Throws ConfigError for bad text or a scene of one frame.
+void set_timesteps(SceneConfig& config, const std::string& range);
+
 /// Adds `vfe run` and its options to the tool (help text and checks included).
 CliCommand register_run(CLI::App& app);
 

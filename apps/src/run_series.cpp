@@ -199,8 +199,8 @@ RunResult run_series(const SceneConfig& cfg, const RunOptions& opt) {
         if (!overfull_warned) {
           const OverfullFacts overfull = overfull_facts(engine);
           overfull_warned = overfull.cells > 0;
-          warn_overfull(*log, mesh.name, m.label + "' at timestep " + std::to_string(f.timestep) + " (and maybe later)",
-                        overfull, f.total_volume());
+          warn_overfull(*log, mesh.name, m.label, overfull, f.total_volume());
+          if (overfull_warned) log->info("  {}: first at timestep {} (later frames are not reported)", m.label, f.timestep);
         }
         if (keep_fields) fields[k].push_back({m.label, eps, solid, opts, {}});
         previous = eps;
