@@ -229,7 +229,8 @@ RunResult run_series(const SceneConfig& cfg, const RunOptions& opt) {
       const std::vector<FoamPatch> patches = read_constraint_patches(find_polymesh_folder(mesh.path));
       for (std::size_t k = 0; k < nframes; ++k) {
         if (fields[k].empty()) continue;
-        const std::string time_name = round_trip(frame_time(frames[k].timestep, dem_dt));
+        // 12 digits: 18000 * 1e-5 is the folder 0.18, not 0.18000000000000002.
+        const std::string time_name = printf_number("%.12g", frame_time(frames[k].timestep, dem_dt));
         write_foam_time(out_dir / mesh.name / time_name, time_name, fields[k], plan, patches, *log);
       }
     }

@@ -93,6 +93,9 @@ std::vector<double> config_shape_volumes(const SceneConfig& c) {
 
 SceneParticles load_particles(const SceneConfig& c) {
   const std::string source = c.source.string();
+  if (c.series)
+    throw ConfigError(source + ": particles: a series of frames (files, frames) is computed by `vfe run`; "
+                               "this command takes one frame: particles: {file: PATH, frame: N}");
   if (c.generate) {
     SceneParticles p;
     p.shape_volumes = config_shape_volumes(c);

@@ -47,7 +47,7 @@ struct SceneParticles {
 void register_shapes(const SceneConfig& config, vfe::Engine& engine);
 
 /// Reads the dump frame or generates the particles. Throws DumpError or ConfigError (a dump
-/// value shape_by_type does not map, no shape/type column, ...).
+/// value shape_by_type does not map, no shape/type column, a series of frames, ...).
 SceneParticles load_particles(const SceneConfig& config);
 
 /// The particles of one dump frame (file names it in messages): spheres, or shapes by the

@@ -277,13 +277,13 @@ TEST(RunSeries, IncrementalCarriesTheEngineAndMatchesFreshComputes) {
 TEST(RunSeries, OpenFoamTimeFolderPerFrame) {
   SeriesScene s;
   test::write_text(s.dir / "a.dump", frame_text(1000, 0));
-  test::write_text(s.dir / "b.dump", frame_text(2000, 2));
+  test::write_text(s.dir / "b.dump", frame_text(18000, 2));
   test::write_text(s.dir / "series.yaml",
                    "name: series\nparticles:\n  files: [a.dump, b.dump]\n  dem_dt: 1.0e-5\nmeshes:\n"
                    "  - {name: box, type: polymesh, path: " VFE_SOURCE_DIR "/data/openfoam/box_uniform_10x10x30}\n"
                    "methods: [pmm]\nreference: exact\nthreads: 1\noutput: out\nfoam: true\n");
   const RunResult res = run_scene(load_config(s.dir / "series.yaml"), RunOptions{});
-  for (const char* time : {"0.01", "0.02"}) {
+  for (const char* time : {"0.01", "0.18"}) {  // 18000 * 1e-5 is 0.18000000000000002 in doubles
     SCOPED_TRACE(time);
     const fs::path field = res.output / "box" / time / "voidfraction_pmm";
     ASSERT_TRUE(fs::is_regular_file(field));
@@ -292,6 +292,23 @@ TEST(RunSeries, OpenFoamTimeFolderPerFrame) {
   }
   ASSERT_EQ(res.series.size(), 1u);
   EXPECT_GT(res.series[0].max_exact_jump, 0.0);
+}
+
+TEST(RunSeries, TimestepsFromTheCommandLine) {
+  SeriesScene s;
+  test::write_text(s.dir / "m.dump", frame_text(10, 0) + frame_text(20, 1) + frame_text(30, 2));
+  s.write_config("  file: m.dump\n  frames: all\n");
+  SceneConfig cfg = load_config(s.config);
+  set_timesteps(cfg, "20:");
+  EXPECT_EQ(timesteps(load_frame_series(cfg)), (std::vector<std::int64_t>{20, 30}));
+  set_timesteps(cfg, ":20");
+  EXPECT_EQ(timesteps(load_frame_series(cfg)), (std::vector<std::int64_t>{10, 20}));
+  set_timesteps(cfg, "15:25");
+  EXPECT_EQ(timesteps(load_frame_series(cfg)), (std::vector<std::int64_t>{20}));
+  for (const char* bad : {"20", "a:30", "20:1x", "30:20"}) EXPECT_THROW(set_timesteps(cfg, bad), ConfigError) << bad;
+  s.write_config("  file: m.dump\n");
+  SceneConfig one = load_config(s.config);
+  EXPECT_THROW(set_timesteps(one, "10:20"), ConfigError);
 }
 
 TEST(RunSeries, BadInputsNameTheFileAndTheFix) {
@@ -352,4 +369,12 @@ TEST(RunSeries, BadInputsNameTheFileAndTheFix) {
   EXPECT_NE(config_error("  files: [a.dump]\n  frames: some\n").find("frames must be 'all'"), std::string::npos);
   EXPECT_NE(config_error("  files: [a.dump]\n  timesteps: [9, 3]\n").find("is before from"), std::string::npos);
   EXPECT_NE(config_error("  files: []\n").find("empty list"), std::string::npos);
+  // Commands of one frame refuse a series.
+  s.write_config("  files: [a.dump]\n");
+  try {
+    (void)load_particles(load_config(s.config));
+    ADD_FAILURE() << "a series was taken as one frame";
+  } catch (const ConfigError& err) {
+    EXPECT_NE(std::string(err.what()).find("takes one frame"), std::string::npos) << err.what();
+  }
 }
