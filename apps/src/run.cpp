@@ -348,10 +348,10 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
       char title[768];
       if (poly || rectilinear)
         std::snprintf(title, sizeof title,
-                      "\n%s / mesh %s: %s of %lld cells, mean cell size %s (mean chi = %.2f), %lld particles, "
+                      "\n%s / mesh %s: %s of %lld cells%s, mean cell size %s (mean chi = %.2f), %lld particles, "
                       "%d thread(s), median of %d, reference %s",
                       cfg.name.c_str(), mesh.name.c_str(), poly ? "polyMesh" : "rectilinear grid",
-                      static_cast<long long>(ncells), g3(cell_size).c_str(), chi,
+                      static_cast<long long>(ncells), lattice_note(mesh, built), g3(cell_size).c_str(), chi,
                       static_cast<long long>(frame.n), threads_used, repeats, reference_title.c_str());
       else
         std::snprintf(title, sizeof title,

@@ -90,11 +90,18 @@ void add_particle_options(MethodPlan& plan, const SceneConfig& cfg, const RunOpt
   plan.global = run_options(cfg, opt, particle_options);
 }
 
+const char* lattice_note(const MeshSpec& mesh, const SceneMesh& built) {
+  return mesh.type == "polymesh" && built.engine->last_report_value("lattice_cells") > 0 ? ", a lattice of box cells"
+                                                                                         : "";
+}
+
 void log_mesh(spdlog::logger& log, const MeshSpec& mesh, const SceneMesh& built, double chi) {
   const double cell_size = built.cube_root_of_mean_volume();
-  if (mesh.type == "polymesh" || mesh.type == "rectilinear")
-    log.info("mesh '{}': {} of {} cells, mean cell size {} (mean chi = {:.2f})", mesh.name,
-             mesh.type == "polymesh" ? "polyMesh" : "rectilinear grid", built.cell_volumes.size(), g3(cell_size), chi);
+  const bool poly = mesh.type == "polymesh";
+  if (poly || mesh.type == "rectilinear")
+    log.info("mesh '{}': {} of {} cells{}, mean cell size {} (mean chi = {:.2f})", mesh.name,
+             poly ? "polyMesh" : "rectilinear grid", built.cell_volumes.size(), lattice_note(mesh, built),
+             g3(cell_size), chi);
   else
     log.info("mesh '{}': {} x {} x {} cells of {} (chi = {:.2f})", mesh.name, built.grid.cells[0], built.grid.cells[1],
              built.grid.cells[2], g3(cell_size), chi);

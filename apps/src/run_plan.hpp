@@ -42,6 +42,10 @@ MethodPlan plan_methods(const SceneConfig& config, const RunOptions& options);
 void add_particle_options(MethodPlan& plan, const SceneConfig& config, const RunOptions& options,
                           const std::string& particle_options);
 
+/// ", a lattice of box cells" for a polyMesh the engine computes on the grid of the same
+/// cells (option lattice), else "".
+const char* lattice_note(const MeshSpec& mesh, const SceneMesh& built);
+
 /// Logs the mesh's size and chi (mean chi on a polyMesh or rectilinear grid).
 void log_mesh(spdlog::logger& log, const MeshSpec& mesh, const SceneMesh& built, double chi);
 

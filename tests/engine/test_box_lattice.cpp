@@ -287,3 +287,22 @@ TEST(BoxLattice, WeightsInThePolyMeshNumbering) {
   expect_fields_near(deposited[1], deposited[0], 1e-12 * 7, "deposit");
   expect_fields_near(interpolated[1], interpolated[0], 1e-12, "interpolate");
 }
+
+// The engine's info log names the lattice and how many particles took the grid's path.
+TEST(BoxLattice, LogNamesTheLattice) {
+  vfe::Engine e(vfe::PolyMeshSpec{kData + "box_graded"});
+  std::vector<std::string> messages;
+  e.set_log_callback(
+      [](int, const char* message, void* user) { static_cast<std::vector<std::string>*>(user)->push_back(message); },
+      &messages);
+  const Particles p = spheres_over_box(14, 200, -0.003);
+  run(e, p, "method=exact log_level=info");
+  const auto has = [&](const std::string& text) {
+    return std::any_of(messages.begin(), messages.end(),
+                       [&](const std::string& m) { return m.find(text) != std::string::npos; });
+  };
+  EXPECT_TRUE(has("a lattice of 16 x 16 x 40 box cells, graded: 200 particles on the rectilinear grid's path"));
+  messages.clear();
+  run(e, p, "method=exact lattice=0");
+  EXPECT_TRUE(has("not used: lattice=0"));
+}

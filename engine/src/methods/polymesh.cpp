@@ -281,20 +281,8 @@ class SubElements {
     return s_.poly_faces.data() + cell.first_face;
   }
 
-  /// Cell c's box when it is one (box_corners, cached per thread), else false.
-  bool cell_box(std::int64_t c, Eigen::AlignedBox3d& box) {
-    std::int32_t* corners = s_.poly_box_corners.data() + 2 * c;
-    if (corners[0] == -2) {
-      const auto found = box_corners(mesh_, c);
-      corners[0] = found[0];
-      corners[1] = found[1];
-    }
-    if (corners[0] < 0) return false;
-    const auto& points = mesh_.points();
-    box = Eigen::AlignedBox3d(points[static_cast<std::size_t>(corners[0])],
-                              points[static_cast<std::size_t>(corners[1])]);
-    return true;
-  }
+  /// Cell c's box when it is one (cached per thread), else false.
+  bool cell_box(std::int64_t c, Eigen::AlignedBox3d& box) { return cached_cell_is_box(mesh_, s_, c, box); }
 
   /// The lattice of the particle's box when the candidate cells are all boxes (and not
   /// too many): per axis the cell bounds strictly inside the box, and for each lattice
@@ -563,6 +551,21 @@ bool cell_is_box(const PolyMesh& mesh, std::int64_t c, Eigen::AlignedBox3d& box)
   if (corners[0] < 0) return false;
   box = Eigen::AlignedBox3d(mesh.points()[static_cast<std::size_t>(corners[0])],
                             mesh.points()[static_cast<std::size_t>(corners[1])]);
+  return true;
+}
+
+bool cached_cell_is_box(const PolyMesh& mesh, Scratch& s, std::int64_t c, Eigen::AlignedBox3d& box) {
+  const auto cells = static_cast<std::size_t>(mesh.cell_count());
+  if (s.poly_box_corners.size() != 2 * cells) s.poly_box_corners.assign(2 * cells, -2);
+  std::int32_t* corners = s.poly_box_corners.data() + 2 * c;
+  if (corners[0] == -2) {
+    const auto found = box_corners(mesh, c);
+    corners[0] = found[0];
+    corners[1] = found[1];
+  }
+  if (corners[0] < 0) return false;
+  const auto& points = mesh.points();
+  box = Eigen::AlignedBox3d(points[static_cast<std::size_t>(corners[0])], points[static_cast<std::size_t>(corners[1])]);
   return true;
 }
 

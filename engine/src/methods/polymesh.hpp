@@ -37,6 +37,8 @@ void cell_boundary(const PolyMesh& mesh, std::int64_t c, Scratch& s);
 /// True when cell c is an axis-aligned box (convex, every face in one of the six planes of
 /// its points' box); then box holds it.
 bool cell_is_box(const PolyMesh& mesh, std::int64_t c, Eigen::AlignedBox3d& box);
+/// cell_is_box, answered once per cell and thread (s.poly_box_corners).
+bool cached_cell_is_box(const PolyMesh& mesh, Scratch& s, std::int64_t c, Eigen::AlignedBox3d& box);
 
 // The methods on a polyMesh: s gets the particle's deposits.
 void polymesh_direct(const PolyContext& ctx, Scratch& s, const Particle& p);

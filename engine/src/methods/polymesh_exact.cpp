@@ -3,6 +3,7 @@
 // the outside policy.
 #include "methods/polymesh.hpp"
 
+#include <vfe/kernels/sphere_box_overlap.hpp>
 #include <vfe/kernels/sphere_polyhedron_overlap.hpp>
 
 namespace vfe::detail {
@@ -58,8 +59,11 @@ void polymesh_exact(const PolyContext& ctx, Scratch& s, const Particle& p) {
     // A cell inside the ball gives its volume (OpenFOAM's, the volume of the same surface).
     const bool contained = (box.min() - c).cwiseAbs().cwiseMax((box.max() - c).cwiseAbs()).squaredNorm() <= r2;
     double v;
+    Eigen::AlignedBox3d cell_box;
     if (contained) {
       v = mesh.cell_volume(cell);
+    } else if (cached_cell_is_box(mesh, s, cell, cell_box)) {  // the grids' closed form
+      v = kernels::sphere_box_overlap(c, r, cell_box.min(), cell_box.max());
     } else {
       cell_boundary(mesh, cell, s);
       v = kernels::sphere_polyhedron_overlap(c, r, s.cell_points, s.cell_face_offsets, s.cell_face_points);

@@ -40,7 +40,7 @@ void spread(const PolyContext& ctx, Scratch& s, const Particle& p, double half, 
     if (!mesh.cell_bounds(cell).intersects(kernel_box)) continue;
     Eigen::AlignedBox3d box;
     double w;
-    if (cell_is_box(mesh, cell, box)) {
+    if (cached_cell_is_box(mesh, s, cell, box)) {
       w = box_share(box);
     } else {
       cell_boundary(mesh, cell, s);
