@@ -313,6 +313,51 @@ ShapeEntry shape_entry(const Ctx& ctx, const YAML::Node& n, std::size_t index, c
   return e;
 }
 
+/// particles: {files: GLOB | [PATH, ...]} or {file: PATH, frames: ...}, with frames: all |
+/// [first, last], timesteps: [from, to] (either may be ~) and dem_dt.
+FrameSeriesSpec frame_series(const Ctx& ctx, const YAML::Node& p, const fs::path& base_dir) {
+  FrameSeriesSpec s;
+  s.line = p.Mark().is_null() ? 0 : p.Mark().line + 1;
+  auto add = [&](const YAML::Node& n) {
+    const std::string f = scalar(ctx, n, "particles: files");
+    if (f.empty()) ctx.fail(n, "particles: files: an entry is empty");
+    s.files.push_back(fs::path(f).is_absolute() ? f : (base_dir / f).lexically_normal().string());
+  };
+  const YAML::Node files = p["files"] ? p["files"] : p["file"];
+  if (files.IsSequence()) {
+    if (files.size() == 0) ctx.fail(files, "particles: files is an empty list; list dumps or give a glob");
+    for (std::size_t i = 0; i < files.size(); ++i) add(files[i]);
+  } else {
+    add(files);
+  }
+  if (const YAML::Node f = p["frames"]) {
+    const std::string what = "particles: frames must be 'all' or [first, last] (0-based indices of the series in "
+                             "timestep order, negative from the end)";
+    if (f.IsScalar() && f.as<std::string>() == "all") {
+      // every frame: the defaults
+    } else if (f.IsSequence() && f.size() == 2) {
+      s.first_frame = integer(ctx, f[0], "particles: frames: first");
+      s.last_frame = integer(ctx, f[1], "particles: frames: last");
+    } else {
+      ctx.fail(f, what);
+    }
+  }
+  if (const YAML::Node t = p["timesteps"]) {
+    if (!t.IsSequence() || t.size() != 2)
+      ctx.fail(t, "particles: timesteps must be [from, to] (inclusive; ~ for no bound), e.g. [16500, ~]");
+    if (!t[0].IsNull()) s.from_timestep = integer(ctx, t[0], "particles: timesteps: from");
+    if (!t[1].IsNull()) s.to_timestep = integer(ctx, t[1], "particles: timesteps: to");
+    if (s.from_timestep && s.to_timestep && *s.to_timestep < *s.from_timestep)
+      ctx.fail(t, "particles: timesteps: to (" + std::to_string(*s.to_timestep) + ") is before from (" +
+                      std::to_string(*s.from_timestep) + ")");
+  }
+  if (const YAML::Node dt = p["dem_dt"]) {
+    s.dem_dt = number(ctx, dt, "particles: dem_dt");
+    if (!(s.dem_dt > 0)) ctx.fail(dt, "particles: dem_dt must be > 0 (the DEM time step, e.g. 1e-5)");
+  }
+  return s;
+}
+
 SceneConfig parse_root(const Ctx& ctx, const YAML::Node& root, const fs::path& base_dir) {
   if (!root.IsDefined() || root.IsNull()) ctx.fail("the config is empty; see configs/bed_mono.yaml for an example");
   if (!root.IsMap()) ctx.fail(root, "the config must be a map of keys (name, particles, meshes, methods, ...)");
@@ -389,9 +434,21 @@ SceneConfig parse_root(const Ctx& ctx, const YAML::Node& root, const fs::path& b
     }
     c.generate = gen;
   } else if (p.IsMap()) {
-    check_keys(ctx, p, {"file", "frame", "shape_by_type", "generate"}, "particles");
-    if (!p["file"]) ctx.fail(p, "particles has no 'file' key; add file: PATH_TO_DUMP (or generate: {...})");
-    file = scalar(ctx, p["file"], "particles: file");
+    check_keys(ctx, p, {"file", "files", "frame", "frames", "timesteps", "dem_dt", "shape_by_type", "generate"},
+               "particles");
+    if (p["file"] && p["files"])
+      ctx.fail(p, "particles: give either 'file' (one dump) or 'files' (a glob or a list of dumps), not both");
+    if (!p["file"] && !p["files"])
+      ctx.fail(p, "particles has no 'file' key; add file: PATH_TO_DUMP, files: \"dir/*.dump.gz\" (a series) or "
+                  "generate: {...}");
+    if (p["frame"] && (p["frames"] || p["files"]))
+      ctx.fail(p["frame"], "particles: 'frame' picks one frame of one file; a series takes 'frames: all' or "
+                           "'frames: [first, last]' (and 'timesteps: [from, to]')");
+    if (p["files"] || p["frames"]) c.series = frame_series(ctx, p, base_dir);
+    else if (p["timesteps"] || p["dem_dt"])
+      ctx.fail(p, "particles: 'timesteps' and 'dem_dt' belong to a series of frames; add 'frames: all' (every "
+                  "frame of the file) or use 'files:'");
+    if (p["file"]) file = scalar(ctx, p["file"], "particles: file");
     if (p["frame"]) {
       const YAML::Node f = p["frame"];
       const std::string s = f.IsScalar() ? f.as<std::string>() : "";
@@ -416,7 +473,7 @@ SceneConfig parse_root(const Ctx& ctx, const YAML::Node& root, const fs::path& b
   } else {
     ctx.fail(p, "particles must be a map {file: PATH, frame: last} or {generate: {...}}");
   }
-  if (!c.generate) {
+  if (!c.generate && !c.series) {
     if (file.empty()) ctx.fail(p, "particles: file is empty");
     c.particles_file = fs::path(file).is_absolute() ? fs::path(file) : (base_dir / file).lexically_normal();
   }

@@ -71,6 +71,19 @@ struct GenerateSpec {
   std::string orientations = "random";  ///< "random" or "none"
 };
 
+/// A scene whose particles are a series of frames, computed one after another. The
+/// frames are every frame of the listed dumps (globs expanded), in TIMESTEP order; timesteps
+/// keeps those in [from, to], then frames keeps the indices [first, last] of what is left.
+struct FrameSeriesSpec {
+  /// Dump paths or glob patterns (* ? [...]), resolved against the config's folder.
+  std::vector<std::string> files;
+  std::int64_t first_frame = 0;  ///< 0-based index in the ordered series; negative counts from the end
+  std::int64_t last_frame = -1;  ///< inclusive; -1 = the last frame
+  std::optional<std::int64_t> from_timestep, to_timestep;  ///< inclusive bounds of the timesteps kept
+  double dem_dt = 0;  ///< DEM time step: a frame's time is timestep * dem_dt (0 = not given: the timestep)
+  int line = 0;       ///< line of the particles entry in the config (1-based, 0 unknown)
+};
+
 struct SceneConfig {
   std::string name;
   std::filesystem::path source;          ///< the config file (for messages)
@@ -81,6 +94,8 @@ struct SceneConfig {
   /// Dump particles: value of the dump's `shape` column (else `type`) -> shape name.
   std::map<std::int64_t, std::string> shape_by_type;
   std::optional<GenerateSpec> generate;  ///< particles generated instead of read
+  /// The particles are a series of frames (particles: files, or frames: all / [first, last]).
+  std::optional<FrameSeriesSpec> series;
   std::vector<MeshSpec> meshes;
   /// Cartesian grids over the particles' box with cubic cells of spacing chi * mean particle
   /// diameter, one per value (named chi_<value>), after the listed meshes.

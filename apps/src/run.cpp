@@ -2,6 +2,7 @@
 
 #include "dump_reader.hpp"
 #include "foam_writer.hpp"
+#include "run_plan.hpp"
 #include "scene_mesh.hpp"
 #include "scene_particles.hpp"
 #include "timing.hpp"
@@ -32,7 +33,6 @@ namespace vfe::apps {
 namespace {
 
 namespace fs = std::filesystem;
-constexpr const char* kVelocityDimensions = "[0 1 -1 0 0 0 0]";
 std::string g3(double v) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.3g", v);
@@ -78,18 +78,6 @@ void write_weights_csv(const fs::path& file, const vfe::Engine& engine) {
   check_written(out, file);
 }
 
-int resolve_threads(const std::string& value) {
-  int t = 0;
-  try {
-    t = std::stoi(value);
-  } catch (...) {
-    t = 0;
-  }
-  if (t > 0) return t;
-  const unsigned hc = std::thread::hardware_concurrency();
-  return hc ? static_cast<int>(hc) : 1;
-}
-
 }  // namespace
 
 std::shared_ptr<spdlog::logger> make_app_logger(bool quiet) {
@@ -110,47 +98,14 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
   const bool vtk = opt.vtk || cfg.vtk;
   const bool foam = opt.foam || cfg.foam;
   const fs::path out_dir = opt.output.value_or(cfg.output);
+  if (cfg.series) return run_series(cfg, opt);
 
-  // The coupling fields need the weights of each compute.
-  auto run_options = [&](const std::string& particle_options) {
-    const std::string o = scene_options(cfg, opt.threads, particle_options, source);
-    return cfg.coupling ? merge_options({o, "weights=1"}) : o;
-  };
-  std::string global = run_options("");
-
-  // The methods to time (one per setting), and the reference (timed too when it is one of them).
-  std::vector<MethodSpec> methods = expand_settings(cfg.methods);
-  const MethodSpec reference = cfg.reference;
-  const bool reference_listed = std::any_of(methods.begin(), methods.end(), [&](const MethodSpec& m) {
-    return m.label == reference.label && m.method == reference.method && m.options == reference.options;
-  });
-
-  // Polymesh folders, then every option string on a one-cell engine, before reading the
-  // particles, so a wrong path or a typo fails at once. Each method starts from the engine's defaults, so one method's
-  // options never leak into the next.
-  check_mesh_paths(cfg);
-  std::string defaults;
-  int threads_used = 0;
-  {
-    vfe::Engine probe(vfe::CartesianGridSpec{});
-    defaults = probe.options();
-    auto check = [&](const MethodSpec& m, const std::string& what) {
-      try {
-        probe.configure(merge_options({defaults, global, "method=" + m.method, m.options}));
-      } catch (const vfe::Error& e) {
-        throw ConfigError(source + ": " + what + " '" + m.label + "': " + e.what());
-      } catch (const ConfigError& e) {
-        throw ConfigError(source + ": " + what + " '" + m.label + "': " + e.what());
-      }
-    };
-    check(reference, "reference");
-    for (const auto& m : methods) check(m, "method");
-    probe.configure(merge_options({defaults, global}));
-    threads_used = resolve_threads(probe.option("threads"));
-  }
-  auto engine_options = [&](const MethodSpec& m) {
-    return merge_options({defaults, global, "method=" + m.method, m.options});
-  };
+  MethodPlan plan = plan_methods(cfg, opt);
+  const std::vector<MethodSpec>& methods = plan.methods;
+  const MethodSpec& reference = plan.reference;
+  const bool reference_listed = plan.reference_listed;
+  const int threads_used = plan.threads;
+  auto engine_options = [&](const MethodSpec& m) { return plan.options_for(m); };
 
   // Particles (read or generated), and the options they need (orientation=given with
   // quaternions) before the config's own.
@@ -165,7 +120,7 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
             frame.shaped() ? "shaped " : "", frame.timestep, frame.shaped() ? "volume-equivalent " : "", g3(mean_d),
             cfg.generate ? "generated" : "read", ms_since(t0));
   if (!frame.options.empty()) {
-    global = run_options(frame.options);
+    add_particle_options(plan, cfg, opt, frame.options);
     log->info("particle options: {} (the config's options win)", frame.options);
   }
   const vfe::ParticleView particles = frame.view();
@@ -191,7 +146,7 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
   info.reference = reference.label;
   info.threads = threads_used;
   info.repeats = repeats;
-  info.options = global;
+  info.options = plan.global;
   info.version = vfe_version();
 
   RunResult result;
@@ -199,19 +154,7 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
 
   const std::vector<MeshSpec> meshes = scene_meshes(cfg, cfg.chi, mean_d);
 
-  // The field the CFD solver reads as plain `voidfraction`: the method run with the engine's
-  // default options (e.g. plain pmm), else the first method.
-  const std::string default_options = merge_options({defaults, global});
-  std::string default_label = methods.empty() ? std::string() : methods.front().label;
-  for (const auto& m : methods)
-    if (engine_options(m) == default_options) {
-      default_label = m.label;
-      break;
-    }
-  const std::string reference_title =
-      reference.label + (reference.label == reference.method && reference.options.empty()
-                             ? std::string()
-                             : " (" + reference.method + (reference.options.empty() ? "" : " " + reference.options) + ")");
+  const std::string reference_title = plan.reference_title();
 
   for (std::size_t mesh_index = 0; mesh_index < meshes.size(); ++mesh_index) {
     const MeshSpec& mesh = meshes[mesh_index];
@@ -236,27 +179,13 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
     std::vector<double> ref(ncells), solid(ncells), eps(ncells);
     const double cell_size = built.cube_root_of_mean_volume();
     const double chi = mean_d > 0 ? cell_size / mean_d : 0.0;
-    // A polyMesh of box cells computes on the grid of the same cells (option lattice).
-    const char* lattice_note = poly && engine->last_report_value("lattice_cells") > 0 ? ", a lattice of box cells" : "";
-    if (poly || rectilinear)
-      log->info("mesh '{}': {} of {} cells{}, mean cell size {} (mean chi = {:.2f})", mesh.name,
-                poly ? "polyMesh" : "rectilinear grid", ncells, lattice_note, g3(cell_size), chi);
-    else
-      log->info("mesh '{}': {} x {} x {} cells of {} (chi = {:.2f})", mesh.name, grid.cells[0], grid.cells[1],
-                grid.cells[2], g3(cell_size), chi);
+    log_mesh(*log, mesh, built, chi);
     const bool foam_here = foam && poly;
     if (foam && !poly)
       log->warn("mesh '{}' is not an OpenFOAM case: OpenFOAM field files are written for polymesh meshes only",
                 mesh.name);
 
-    // Fields kept for the writers: label, void fraction, solid volume, options.
-    struct Field {
-      std::string label;
-      std::vector<double> eps, solid;
-      std::string options;
-      std::vector<double> us;  ///< coupling: Us, 3 per cell
-    };
-    std::vector<Field> fields;
+    std::vector<MethodField> fields;  // kept for the writers
     const bool keep_fields = vtk || foam_here;
     /// After a compute: with coupling, the weights CSV, and the field to keep.
     auto keep_field = [&](const std::string& label, const std::vector<double>& field, const std::string& opts) {
@@ -422,7 +351,7 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
                       "\n%s / mesh %s: %s of %lld cells%s, mean cell size %s (mean chi = %.2f), %lld particles, "
                       "%d thread(s), median of %d, reference %s",
                       cfg.name.c_str(), mesh.name.c_str(), poly ? "polyMesh" : "rectilinear grid",
-                      static_cast<long long>(ncells), lattice_note, g3(cell_size).c_str(), chi,
+                      static_cast<long long>(ncells), lattice_note(mesh, built), g3(cell_size).c_str(), chi,
                       static_cast<long long>(frame.n), threads_used, repeats, reference_title.c_str());
       else
         std::snprintf(title, sizeof title,
@@ -436,63 +365,42 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
     }
     result.rows.insert(result.rows.end(), mesh_rows.begin(), mesh_rows.end());
 
-    if (vtk) {
-      std::vector<CellArray> arrays;
-      for (const Field& f : fields) {
-        arrays.push_back({"voidfraction_" + f.label, f.eps});
-        arrays.push_back({"solid_volume_" + f.label, f.solid});
-        if (!f.us.empty()) arrays.push_back({"Us_" + f.label, f.us, 3});
-      }
-      if (engine->is_polymesh()) {
-        const fs::path f = out_dir / (mesh.name + ".vtu");
-        std::vector<double> centres(3 * ncells);
-        engine->cell_centres(centres);
-        write_vtu(f, engine->poly_topology(), centres, arrays);
-        log->info("wrote {}", f.string());
-      } else {
-        const fs::path f = out_dir / (mesh.name + ".vti");
-        write_vti(f, grid, arrays);
-        log->info("wrote {}", f.string());
-      }
-    }
-    if (foam_here && !fields.empty()) {
-      const fs::path time_dir = out_dir / mesh.name / "0";
-      const std::vector<FoamPatch> patches = read_constraint_patches(find_polymesh_folder(mesh.path));
-      const Field* plain = nullptr;
-      for (const Field& f : fields) {
-        write_foam_scalar_field(time_dir / ("voidfraction_" + f.label), "voidfraction_" + f.label, "0", f.eps, patches,
-                                f.options);
-        if (!f.us.empty())
-          write_foam_vector_field(time_dir / ("Us_" + f.label), "Us_" + f.label, "0", f.us, kVelocityDimensions,
-                                  patches, f.options);
-        if (f.label == default_label) plain = &f;
-      }
-      if (!plain)  // the default method was skipped here: the first listed method that ran
-        for (const auto& m : methods) {
-          auto it = std::find_if(fields.begin(), fields.end(), [&](const Field& f) { return f.label == m.label; });
-          if (it != fields.end()) {
-            plain = &*it;
-            break;
-          }
-        }
-      if (plain) {
-        write_foam_scalar_field(time_dir / "voidfraction", "voidfraction", "0", plain->eps, patches,
-                                plain->label + ": " + plain->options);
-        if (!plain->us.empty())
-          write_foam_vector_field(time_dir / "Us", "Us", "0", plain->us, kVelocityDimensions, patches,
-                                  plain->label + ": " + plain->options);
-        log->info("wrote {} (voidfraction from {}, and voidfraction_<method> for every method)", time_dir.string(),
-                  plain->label);
-      } else {
-        log->info("wrote {} (voidfraction_<method>)", time_dir.string());
-      }
-    }
+    if (vtk) log->info("wrote {}", write_mesh_vtk(out_dir / mesh.name, built, field_arrays(fields)).string());
+    if (foam_here && !fields.empty())
+      write_foam_time(out_dir / mesh.name / "0", "0", fields, plan,
+                      read_constraint_patches(find_polymesh_folder(mesh.path)), *log);
     // Reports so far, so a long run leaves results even if a later mesh fails.
     write_json(out_dir / "results.json", info, result.rows);
     write_csv(out_dir / "results.csv", info, result.rows);
   }
   log->info("wrote {} and {}", (out_dir / "results.json").string(), (out_dir / "results.csv").string());
   return result;
+}
+
+void set_timesteps(SceneConfig& cfg, const std::string& range) {
+  const auto colon = range.find(':');
+  auto bound = [&](const std::string& text) -> std::optional<std::int64_t> {
+    if (text.empty()) return std::nullopt;
+    std::size_t used = 0;
+    std::int64_t v = 0;
+    try {
+      v = std::stoll(text, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used != text.size() || text.empty())
+      throw ConfigError("--timesteps " + range + ": '" + text + "' is not an integer timestep");
+    return v;
+  };
+  if (colon == std::string::npos)
+    throw ConfigError("--timesteps " + range + ": give FROM:TO, e.g. 16500:19500 or 24000: (either may be empty)");
+  if (!cfg.series)
+    throw ConfigError("--timesteps: " + cfg.source.string() +
+                      " has one frame; a series takes particles: {files: ...} or frames: all");
+  const auto from = bound(range.substr(0, colon)), to = bound(range.substr(colon + 1));
+  if (from && to && *to < *from) throw ConfigError("--timesteps " + range + ": TO is before FROM");
+  cfg.series->from_timestep = from;
+  cfg.series->to_timestep = to;
 }
 
 CliCommand register_run(CLI::App& app) {
@@ -504,6 +412,7 @@ CliCommand register_run(CLI::App& app) {
     bool quiet = false;
     bool vtk = false;
     bool foam = false;
+    std::string timesteps;
   };
   const auto args = std::make_shared<Args>();
   CLI::App* run = app.add_subcommand("run", "Compute, time and compare the methods of a YAML scene config");
@@ -522,8 +431,12 @@ CliCommand register_run(CLI::App& app) {
                 "Also write OpenFOAM fields <mesh>/0/voidfraction_<method> and <mesh>/0/voidfraction on "
                 "polyMesh meshes");
 
+  run->add_option("--timesteps", args->timesteps,
+                  "A series' timesteps FROM:TO, inclusive, either may be empty (replaces the config's 'timesteps')");
+
   return {run, [args] {
-    const SceneConfig cfg = load_config(args->config_file);
+    SceneConfig cfg = load_config(args->config_file);
+    if (!args->timesteps.empty()) set_timesteps(cfg, args->timesteps);
     RunOptions opt;
     if (!args->output.empty()) opt.output = args->output;
     if (args->threads >= 0) opt.threads = args->threads;

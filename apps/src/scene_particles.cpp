@@ -82,17 +82,23 @@ void generate_particles(const GenerateSpec& g, std::vector<double>& centres, std
   }
 }
 
-SceneParticles load_particles(const SceneConfig& c) {
-  SceneParticles p;
-  const std::string source = c.source.string();
-  if (!c.shapes.empty()) {
-    vfe::Engine probe(vfe::CartesianGridSpec{});
-    register_shapes(c, probe);
-    for (std::size_t i = 0; i < c.shapes.size(); ++i)
-      p.shape_volumes.push_back(probe.shape_volume(static_cast<std::int32_t>(i)));
-  }
+std::vector<double> config_shape_volumes(const SceneConfig& c) {
+  std::vector<double> volumes;
+  if (c.shapes.empty()) return volumes;
+  vfe::Engine probe(vfe::CartesianGridSpec{});
+  register_shapes(c, probe);
+  for (std::size_t i = 0; i < c.shapes.size(); ++i) volumes.push_back(probe.shape_volume(static_cast<std::int32_t>(i)));
+  return volumes;
+}
 
+SceneParticles load_particles(const SceneConfig& c) {
+  const std::string source = c.source.string();
+  if (c.series)
+    throw ConfigError(source + ": particles: a series of frames (files, frames) is computed by `vfe run`; "
+                               "this command takes one frame: particles: {file: PATH, frame: N}");
   if (c.generate) {
+    SceneParticles p;
+    p.shape_volumes = config_shape_volumes(c);
     const GenerateSpec& g = *c.generate;
     const int id = c.shape_index(g.shape);
     if (id < 0) throw ConfigError(source + ": particles: generate: shape '" + g.shape + "' is not in the 'shapes' list");
@@ -105,16 +111,24 @@ SceneParticles load_particles(const SceneConfig& c) {
     p.options = g.orientations == "random" ? "orientation=given" : "orientation=none";
     return p;
   }
+  return particles_from_dump(c, read_dump_frame(c.particles_file.string(), FrameSelector{c.frame}), c.particles_file,
+                             config_shape_volumes(c));
+}
 
-  DumpFrame f = read_dump_frame(c.particles_file.string(), FrameSelector{c.frame});
+SceneParticles particles_from_dump(const SceneConfig& c, DumpFrame&& f, const std::filesystem::path& file,
+                                   std::vector<double> shape_volumes) {
+  SceneParticles p;
+  const std::string source = c.source.string();
+  p.shape_volumes = std::move(shape_volumes);
   p.timestep = f.timestep;
   p.n = f.n;
   p.box = f.box;
-  p.source_name = c.particles_file.filename().string();
+  p.source_name = file.filename().string();
   p.centres = std::move(f.centres);
   p.radii = std::move(f.radii);
   p.orientations = std::move(f.orientations);
   p.velocities = std::move(f.velocities);
+  p.ids = f.ids;
   if (c.shape_by_type.empty()) return p;
 
   const bool by_shape = !f.shapes.empty();
@@ -123,9 +137,8 @@ SceneParticles load_particles(const SceneConfig& c) {
   if (key.empty() && p.n > 0) {
     std::string cols;
     for (const auto& x : f.columns) cols += (cols.empty() ? "" : " ") + x;
-    throw ConfigError(source + ": particles: shape_by_type needs a 'shape' or 'type' column in " +
-                      c.particles_file.string() + ", whose ATOMS header has '" + cols +
-                      "'; dump the particles' type (or shape) too");
+    throw ConfigError(source + ": particles: shape_by_type needs a 'shape' or 'type' column in " + file.string() +
+                      ", whose ATOMS header has '" + cols + "'; dump the particles' type (or shape) too");
   }
   p.shape_ids.resize(static_cast<std::size_t>(p.n));
   for (std::size_t i = 0; i < p.shape_ids.size(); ++i) {
@@ -134,7 +147,7 @@ SceneParticles load_particles(const SceneConfig& c) {
       throw ConfigError(source + ": particles: shape_by_type has no entry for " + column + " " +
                         std::to_string(key[i]) + " (particle " +
                         (f.ids.empty() ? "index " + std::to_string(i) : "id " + std::to_string(f.ids[i])) + " of " +
-                        c.particles_file.filename().string() + "); add " + std::to_string(key[i]) + ": NAME");
+                        file.filename().string() + "); add " + std::to_string(key[i]) + ": NAME");
     p.shape_ids[i] = c.shape_index(it->second);
   }
   // Shapes turn with the particles when the dump has their quaternions; otherwise the

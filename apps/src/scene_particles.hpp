@@ -3,11 +3,13 @@
 #pragma once
 
 #include "config.hpp"
+#include "dump_reader.hpp"
 
 #include <vfe/engine.hpp>
 
 #include <array>
 #include <cstdint>
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -22,6 +24,7 @@ struct SceneParticles {
   std::vector<double> radii;                    ///< n: radii, or the shapes' scales when shaped
   std::vector<double> orientations;             ///< 4n quaternions (w, x, y, z), or empty
   std::vector<double> velocities;               ///< 3n (the dump's vx vy vz), or empty
+  std::vector<std::int64_t> ids;                ///< n (the dump's id column), or empty
   std::vector<std::int32_t> shape_ids;          ///< n indices into the config's shapes, or empty (spheres)
   std::vector<double> shape_volumes;            ///< per shape of the config, at scale 1
   /// Engine options the particles need (orientation=given with quaternions, orientation=none
@@ -44,8 +47,16 @@ struct SceneParticles {
 void register_shapes(const SceneConfig& config, vfe::Engine& engine);
 
 /// Reads the dump frame or generates the particles. Throws DumpError or ConfigError (a dump
-/// value shape_by_type does not map, no shape/type column, ...).
+/// value shape_by_type does not map, no shape/type column, a series of frames, ...).
 SceneParticles load_particles(const SceneConfig& config);
+
+/// The particles of one dump frame (file names it in messages): spheres, or shapes by the
+/// config's shape_by_type. Throws ConfigError as load_particles.
+SceneParticles particles_from_dump(const SceneConfig& config, DumpFrame&& frame, const std::filesystem::path& file,
+                                   std::vector<double> shape_volumes);
+
+/// The scale-1 volume of each of the config's shapes (registered on a probe engine).
+std::vector<double> config_shape_volumes(const SceneConfig& config);
 
 /// count particles of one shape: centres uniform in box, unit quaternions uniform over
 /// rotations (empty for orientations: none); deterministic for a seed on every platform.

@@ -81,6 +81,30 @@ void data_array(std::ostream& o, const std::string& name, std::span<const T> val
   o << indent << "</DataArray>\n";
 }
 
+/// The XML declaration and the VTKFile element of a file of the given type.
+void open_vtk_file(std::ostream& o, const char* type) {
+  const bool little = std::endian::native == std::endian::little;
+  o << "<?xml version=\"1.0\"?>\n";
+  o << "<VTKFile type=\"" << type << "\" version=\"1.0\" byte_order=\"" << (little ? "LittleEndian" : "BigEndian")
+    << "\" header_type=\"UInt64\">\n";
+}
+
+/// s with the five XML special characters escaped, for an attribute value.
+std::string xml_attribute(const std::string& s) {
+  std::string out;
+  for (char c : s) {
+    switch (c) {
+      case '&': out += "&amp;"; break;
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '"': out += "&quot;"; break;
+      case '\'': out += "&apos;"; break;
+      default: out += c;
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
 void write_vti(const std::filesystem::path& file, const vfe::CartesianGridSpec& g,
@@ -91,13 +115,10 @@ void write_vti(const std::filesystem::path& file, const vfe::CartesianGridSpec& 
       throw std::runtime_error("write_vti: array '" + a.name + "' has " + std::to_string(a.values.size()) +
                                " values, the grid has " + std::to_string(n) + " cells of " +
                                std::to_string(a.components) + " component(s)");
-  const bool little = std::endian::native == std::endian::little;
   std::ostringstream o;
   const std::string extent =
       "0 " + std::to_string(g.cells[0]) + " 0 " + std::to_string(g.cells[1]) + " 0 " + std::to_string(g.cells[2]);
-  o << "<?xml version=\"1.0\"?>\n";
-  o << "<VTKFile type=\"ImageData\" version=\"1.0\" byte_order=\"" << (little ? "LittleEndian" : "BigEndian")
-    << "\" header_type=\"UInt64\">\n";
+  open_vtk_file(o, "ImageData");
   o << "  <ImageData WholeExtent=\"" << extent << "\" Origin=\"" << round_trip(g.origin[0]) << ' '
     << round_trip(g.origin[1]) << ' ' << round_trip(g.origin[2]) << "\" Spacing=\"" << round_trip(g.spacing[0])
     << ' ' << round_trip(g.spacing[1]) << ' ' << round_trip(g.spacing[2]) << "\">\n";
@@ -185,11 +206,8 @@ void write_vtu(const std::filesystem::path& file, const vfe::Engine::PolyTopolog
   }
   const std::vector<std::uint8_t> types(static_cast<std::size_t>(ncells), 42);  // VTK_POLYHEDRON
 
-  const bool little = std::endian::native == std::endian::little;
   std::ostringstream o;
-  o << "<?xml version=\"1.0\"?>\n";
-  o << "<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"" << (little ? "LittleEndian" : "BigEndian")
-    << "\" header_type=\"UInt64\">\n";
+  open_vtk_file(o, "UnstructuredGrid");
   o << "  <UnstructuredGrid>\n";
   o << "    <Piece NumberOfPoints=\"" << npoints << "\" NumberOfCells=\"" << ncells << "\">\n";
   o << "      <PointData>\n      </PointData>\n";
@@ -207,6 +225,55 @@ void write_vtu(const std::filesystem::path& file, const vfe::Engine::PolyTopolog
   data_array<std::int64_t>(o, "faceoffsets", faceoffsets, 1, encoding);
   o << "      </Cells>\n";
   o << "    </Piece>\n  </UnstructuredGrid>\n</VTKFile>\n";
+  write_text_file(file, o.str());
+}
+
+void write_vtp(const std::filesystem::path& file, std::span<const double> centres, std::span<const double> radii,
+               std::span<const double> velocities, std::span<const std::int64_t> ids, VtkEncoding encoding) {
+  const std::size_t n = radii.size();
+  auto check = [&](const char* name, std::size_t size, std::size_t per) {
+    if (size != per * n)
+      throw std::runtime_error("write_vtp: " + file.filename().string() + ": " + name + " has " + std::to_string(size) +
+                               " values for " + std::to_string(n) + " particles of " + std::to_string(per) +
+                               " component(s)");
+  };
+  check("centres", centres.size(), 3);
+  if (!velocities.empty()) check("velocities", velocities.size(), 3);
+  if (!ids.empty()) check("ids", ids.size(), 1);
+  std::vector<std::int64_t> connectivity(n), offsets(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    connectivity[i] = static_cast<std::int64_t>(i);
+    offsets[i] = static_cast<std::int64_t>(i + 1);
+  }
+  std::ostringstream o;
+  open_vtk_file(o, "PolyData");
+  o << "  <PolyData>\n";
+  o << "    <Piece NumberOfPoints=\"" << n << "\" NumberOfVerts=\"" << n
+    << "\" NumberOfLines=\"0\" NumberOfStrips=\"0\" NumberOfPolys=\"0\">\n";
+  o << "      <PointData Scalars=\"radius\"" << (velocities.empty() ? "" : " Vectors=\"velocity\"") << ">\n";
+  data_array<double>(o, "radius", radii, 1, encoding);
+  if (!velocities.empty()) data_array<double>(o, "velocity", velocities, 3, encoding);
+  if (!ids.empty()) data_array<std::int64_t>(o, "id", ids, 1, encoding);
+  o << "      </PointData>\n";
+  o << "      <Points>\n";
+  data_array<double>(o, "Points", centres, 3, encoding);
+  o << "      </Points>\n";
+  o << "      <Verts>\n";
+  data_array<std::int64_t>(o, "connectivity", connectivity, 1, encoding);
+  data_array<std::int64_t>(o, "offsets", offsets, 1, encoding);
+  o << "      </Verts>\n";
+  o << "    </Piece>\n  </PolyData>\n</VTKFile>\n";
+  write_text_file(file, o.str());
+}
+
+void write_pvd(const std::filesystem::path& file, const std::vector<PvdEntry>& entries) {
+  std::ostringstream o;
+  open_vtk_file(o, "Collection");
+  o << "  <Collection>\n";
+  for (const PvdEntry& e : entries)
+    o << "    <DataSet timestep=\"" << round_trip(e.time) << "\" part=\"0\" file=\""
+      << xml_attribute(e.file.generic_string()) << "\"/>\n";
+  o << "  </Collection>\n</VTKFile>\n";
   write_text_file(file, o.str());
 }
 

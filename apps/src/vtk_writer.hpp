@@ -4,6 +4,7 @@
 
 #include <vfe/engine.hpp>
 
+#include <cstdint>
 #include <filesystem>
 #include <span>
 #include <string>
@@ -32,5 +33,21 @@ void write_vti(const std::filesystem::path& file, const vfe::CartesianGridSpec& 
 void write_vtu(const std::filesystem::path& file, const vfe::Engine::PolyTopology& topology,
                std::span<const double> cell_centres, const std::vector<CellArray>& arrays,
                VtkEncoding encoding = VtkEncoding::base64);
+
+/// Writes particles as a .vtp PolyData of points (one vertex each) with point arrays: radius
+/// (n), velocity (3n, omitted when empty) and id (n, omitted when empty). Throws
+/// std::runtime_error if an array has the wrong size or the file cannot be written.
+void write_vtp(const std::filesystem::path& file, std::span<const double> centres, std::span<const double> radii,
+               std::span<const double> velocities, std::span<const std::int64_t> ids,
+               VtkEncoding encoding = VtkEncoding::base64);
+
+/// One entry of a ParaView collection: a data file at a time.
+struct PvdEntry {
+  double time = 0;
+  std::filesystem::path file;  ///< relative to the .pvd file's folder
+};
+
+/// Writes a ParaView .pvd collection listing the files in the order given, each at its time.
+void write_pvd(const std::filesystem::path& file, const std::vector<PvdEntry>& entries);
 
 }  // namespace vfe::apps

@@ -22,14 +22,16 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("dumps", help="glob of the dump series")
     ap.add_argument("--from", dest="first", type=int, default=0, help="first timestep used")
+    ap.add_argument("--to", dest="last", type=int, default=None, help="last timestep used (default: the last)")
     ap.add_argument("--cells", default="0.001,0.002", help="cubic cell sizes, comma-separated")
     ap.add_argument("--box", default="0,0,0,0.02,0.02,0.06", help="grid box lo x,y,z, hi x,y,z")
     ap.add_argument("--csv", help="also write the table here")
     a = ap.parse_args()
     box = [float(v) for v in a.box.split(",")]
-    frames = [f for f in vfe.read_frames(a.dumps) if f["timestep"] >= a.first]
+    frames = [f for f in vfe.read_frames(a.dumps)
+              if f["timestep"] >= a.first and (a.last is None or f["timestep"] <= a.last)]
     if len(frames) < 2:
-        ap.error("fewer than two frames from --from on")
+        ap.error("fewer than two frames between --from and --to")
     particles = [vfe.particles(f) for f in frames]
     d_mean = float(np.mean(2 * particles[0][1]))
     crit = math.pi / 162  # the default criterion of docs/design.md section 8: direct just stable at chi = 3
