@@ -443,14 +443,13 @@ double check_poly_particles(const vfe_mpi_engine& e, const vfe_particles& p, std
   return max_radius;
 }
 
-// Collective. The centres no rank's local mesh placed (every rank passes its own list) are
-// gathered everywhere; a centre inside a rank's cells belongs to that rank, one outside the
-// whole mesh to the rank of the cell whose centre is nearest (the serial engine's rule for
-// outside=nearest). A centre given elsewhere fails; returns how far outside the mesh the
-// farthest such centre lies (its distance to that nearest cell centre), on every rank.
-double place_outside_centres(const vfe_mpi_engine& e, const vfe_particles& p, const std::vector<std::int64_t>& mine) {
-  std::vector<double> x;
-  for (const std::int64_t i : mine) x.insert(x.end(), at(p.centres, p.centres_stride, 3, i), at(p.centres, p.centres_stride, 3, i) + 3);
+// Collective. The owners of centres no rank's local mesh placed (every rank passes its own
+// list, 3 values per centre; the lists are gathered everywhere): a centre inside a rank's
+// cells belongs to that rank, one outside the whole mesh to the rank of the cell whose
+// centre is nearest (the serial engine's rule for outside=nearest). Also returns, on every
+// rank, how far outside the mesh the farthest of all these centres lies (its distance to
+// that nearest cell centre; 0 when all are inside).
+std::vector<int> owners_of_unplaced(const vfe_mpi_engine& e, const std::vector<double>& x, double& beyond) {
   const int count = static_cast<int>(x.size());
   std::vector<int> counts(static_cast<std::size_t>(e.size)), displs(static_cast<std::size_t>(e.size), 0);
   MPI_Allgather(&count, 1, MPI_INT, counts.data(), 1, MPI_INT, e.comm);
@@ -460,17 +459,17 @@ double place_outside_centres(const vfe_mpi_engine& e, const vfe_particles& p, co
   const std::size_t n = all.size() / 3;
   std::vector<std::int64_t> cells(n);
   e.local->locate(all, cells);
-  std::vector<double> centres(static_cast<std::size_t>(3 * e.owned_cells()));
-  std::vector<double> local_centres(static_cast<std::size_t>(3 * e.local->cell_count()));
-  e.local->cell_centres(local_centres);
-  std::copy_n(local_centres.begin(), centres.size(), centres.begin());
+  std::vector<double> centres(static_cast<std::size_t>(3 * e.local->cell_count()));
+  e.local->cell_centres(centres);
+  centres.resize(static_cast<std::size_t>(3 * e.owned_cells()));
   // (distance, rank): -1 when the centre lies in one of this rank's cells, else the distance
-  // to its nearest owned cell centre; the smallest over ranks names the owner.
+  // to its nearest owned cell centre (brute force: these centres are few); the smallest over
+  // ranks names the owner.
   struct Candidate {
     double distance;
     int rank;
   };
-  std::vector<Candidate> mine_best(n), best(n);
+  std::vector<Candidate> mine(n), best(n);
   for (std::size_t k = 0; k < n; ++k) {
     double d2 = std::numeric_limits<double>::infinity();
     if (cells[k] >= 0 && cells[k] < e.owned_cells())
@@ -481,18 +480,29 @@ double place_outside_centres(const vfe_mpi_engine& e, const vfe_particles& p, co
         for (int d = 0; d < 3; ++d) s += (all[3 * k + d] - centres[3 * c + d]) * (all[3 * k + d] - centres[3 * c + d]);
         d2 = std::min(d2, s);
       }
-    mine_best[k] = {d2 < 0 ? -1.0 : std::sqrt(d2), e.rank};
+    mine[k] = {d2 < 0 ? -1.0 : std::sqrt(d2), e.rank};
   }
-  MPI_Allreduce(mine_best.data(), best.data(), static_cast<int>(n), MPI_DOUBLE_INT, MPI_MINLOC, e.comm);
-  double beyond = 0;
+  MPI_Allreduce(mine.data(), best.data(), static_cast<int>(n), MPI_DOUBLE_INT, MPI_MINLOC, e.comm);
+  beyond = 0;
   for (std::size_t k = 0; k < n; ++k) beyond = std::max(beyond, best[k].distance);
+  std::vector<int> owners;
   const std::size_t first = static_cast<std::size_t>(displs[static_cast<std::size_t>(e.rank)]) / 3;
+  for (std::size_t j = 0; j < x.size() / 3; ++j) owners.push_back(best[first + j].rank);
+  return owners;
+}
+
+// Collective. The rank's particles whose centres lie in no cell held here (`mine`) must
+// belong to it by owners_of_unplaced's rule; returns its `beyond`.
+double place_outside_centres(const vfe_mpi_engine& e, const vfe_particles& p, const std::vector<std::int64_t>& mine) {
+  std::vector<double> x;
+  for (const std::int64_t i : mine) x.insert(x.end(), at(p.centres, p.centres_stride, 3, i), at(p.centres, p.centres_stride, 3, i) + 3);
+  double beyond = 0;
+  const std::vector<int> owners = owners_of_unplaced(e, x, beyond);
   for (std::size_t j = 0; j < mine.size(); ++j)
-    if (best[first + j].rank != e.rank)
-      throw Error(VFE_ERROR_INVALID_ARGUMENT,
-                  wrong_rank(p, mine[j],
-                             best[first + j].distance < 0 ? "a cell" : "no cell (outside the mesh: it belongs to the cell with the nearest centre)",
-                             best[first + j].rank, e.rank));
+    if (owners[j] != e.rank)
+      throw Error(VFE_ERROR_INVALID_ARGUMENT, wrong_rank(p, mine[j], "a cell outside this rank's ghost layer, or in no cell "
+                                                                     "(then the owner is that of the nearest cell centre)",
+                                                         owners[j], e.rank));
   return beyond;
 }
 
@@ -878,7 +888,7 @@ vfe_status vfe_mpi_owner(const vfe_mpi_engine* e, const double centre[3], int* r
             "vfe_mpi_owner: the centre must be finite");
     *rank = owner_rank(*e, centre);
     require(*rank >= 0, "vfe_mpi_owner: the centre lies in no cell this rank owns or holds as a ghost; on a polyMesh "
-                        "a rank knows its own cells and its ghost layer only; hand the particle to the rank whose cells hold it");
+                        "a rank knows its own cells and its ghost layer only (vfe_mpi_route_particles finds any owner)");
   });
 }
 
@@ -1044,20 +1054,24 @@ vfe_status vfe_mpi_route_particles(const vfe_mpi_engine* e, int64_t n, const dou
     require(n >= 0, "vfe_mpi_route_particles: n must be >= 0");
     require(n == 0 || (centres && radii && ids), "vfe_mpi_route_particles: centres, radii and ids must not be NULL");
     require(n_out && centres_out && radii_out && ids_out, "vfe_mpi_route_particles: outputs must not be NULL");
-    if (e->poly)
-      throw Error(VFE_ERROR_UNSUPPORTED,
-                  "vfe_mpi_route_particles works on Cartesian grids only: on a polyMesh a rank knows its own cells and "
-                  "ghost layer only; hand each particle to the rank whose cells hold its centre (the host's own "
-                  "particle migration)");
     std::vector<int> dest(static_cast<std::size_t>(n));
     std::vector<int> counts(static_cast<std::size_t>(e->size), 0);
+    std::vector<double> unplaced;  // a polyMesh's centres in no cell held here
     for (std::int64_t i = 0; i < n; ++i) {
       const double* x = centres + 3 * i;
       require(std::isfinite(x[0]) && std::isfinite(x[1]) && std::isfinite(x[2]),
               "vfe_mpi_route_particles: particle " + std::to_string(i) + " has a non-finite centre");
-      dest[static_cast<std::size_t>(i)] = owner_of(*e, centre_cell(*e, x));
-      ++counts[static_cast<std::size_t>(dest[static_cast<std::size_t>(i)])];
+      dest[static_cast<std::size_t>(i)] = owner_rank(*e, x);
+      if (dest[static_cast<std::size_t>(i)] < 0) unplaced.insert(unplaced.end(), x, x + 3);
     }
+    if (e->poly) {
+      double beyond = 0;
+      const std::vector<int> owners = owners_of_unplaced(*e, unplaced, beyond);
+      std::size_t next = 0;
+      for (int& d : dest)
+        if (d < 0) d = owners[next++];
+    }
+    for (const int d : dest) ++counts[static_cast<std::size_t>(d)];
     // Packed records of 5 doubles (centre, radius, id's bits), grouped by destination.
     std::vector<int> displs(static_cast<std::size_t>(e->size), 0);
     for (int q = 1; q < e->size; ++q) displs[q] = displs[q - 1] + counts[q - 1];

@@ -315,7 +315,6 @@ TEST(DistributedCartesian, BlocksThatDoNotTileTheGridAreRefused) {
   EXPECT_EQ(vfe_mpi_create_cartesian(MPI_COMM_WORLD, g.origin.data(), bad_spacing, g.cells.data(), lo, hi, &e),
             VFE_ERROR_INVALID_ARGUMENT);
   EXPECT_EQ(e, nullptr);
-  EXPECT_EQ(vfe_mpi_create_polymesh(MPI_COMM_WORLD, "processor0", &e), VFE_ERROR_UNSUPPORTED);
 }
 
 TEST(DistributedCartesian, BadOptionChangesNothing) {

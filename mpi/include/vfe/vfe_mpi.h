@@ -156,8 +156,9 @@ VFE_API vfe_status vfe_mpi_last_report_value(const vfe_mpi_engine* e, const char
 VFE_API const char* vfe_mpi_last_error(const vfe_mpi_engine* e);
 VFE_API vfe_status vfe_mpi_set_log_callback(vfe_mpi_engine* e, vfe_log_fn fn, void* user);
 
-/** Collective; Cartesian grids only (a polyMesh answers VFE_ERROR_UNSUPPORTED: no rank
- *  knows every cell). Sends every particle to the rank that owns it (vfe_mpi_owner). In: n packed
+/** Collective. Sends every particle to the rank that owns it (vfe_mpi_owner; on a polyMesh
+ *  a centre beyond the rank's cells and ghosts is looked up on every rank, the centres
+ *  gathered everywhere: meant for the first hand-over, not every step). In: n packed
  *  particles (centres 3n, radii n, ids n). Out: *n_out particles in arrays allocated with
  *  malloc (the caller frees them), in the order of their source rank, then input order.
  *  On failure nothing is allocated. */
