@@ -229,14 +229,17 @@ Index3 ghost_needed(const vfe_mpi_engine& e, double max_radius) {
 
 // The ghost width (a length) a polyMesh needs for particles of max_radius whose centres lie
 // at most `beyond` outside this rank's cells (those outside the whole mesh): the footprint,
-// and under outside=nearest the cells whose centres can be nearest to a point of it
+// and when volume beyond the mesh goes to the nearest cells the cells whose centres can be nearest to a point of it
 // (within sqrt(3) (reach + beyond) + the owning cell's diagonal of the point), plus one
 // cell so that the layer's outer edge stays clear (checked after compute).
 double poly_width_needed(const vfe_mpi_engine& e, double max_radius, double beyond) {
   double extra_cells = 0;
   double reach = footprint_reach(e, max_radius, extra_cells) + beyond;
   const double h = e.poly->largest_cell;
-  if (e.local->option("outside") == "nearest") reach += std::sqrt(3.0) * (reach + h);
+  const std::string outside = e.local->option("outside");
+  // outside=error with a tolerance sends the tolerated volume to the nearest cells too.
+  if (outside == "nearest" || (outside == "error" && std::stod(e.local->option("outside_tolerance")) > 0))
+    reach += std::sqrt(3.0) * (reach + h);
   return reach + (1.0 + extra_cells) * h * 1.01;
 }
 
