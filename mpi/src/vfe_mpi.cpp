@@ -1,6 +1,6 @@
-// vfe_mpi: an ordinary vfe engine per rank on its block plus ghosts, a reverse halo sum of
-// the ghost deposits into their owners, and the C API's promises kept across ranks (every
-// collective call has the same status on every rank).
+// vfe_mpi: an ordinary vfe engine per rank on its block (or processor mesh) plus ghosts, a
+// reverse halo sum of the ghost deposits into their owners, and the C API's promises kept
+// across ranks (every collective call has the same status on every rank).
 #include <vfe/vfe_mpi.h>
 
 #include <vfe/engine.hpp>
