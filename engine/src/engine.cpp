@@ -5,6 +5,7 @@
 
 #include "accumulator.hpp"
 #include "engine_mesh.hpp"
+#include "methods/lattice.hpp"
 #include "methods/registry.hpp"
 #include "methods/shape_exact.hpp"
 #include "options.hpp"
@@ -425,9 +426,25 @@ struct Engine::Impl {
       case MeshKind::rectilinear:
         run(detail::RectilinearContext{common, *mesh.rectilinear()}, drivers.rectilinear, pa, pl);
         break;
-      case MeshKind::polyhedral:
-        run(detail::PolyContext{common, mesh.locator()}, drivers.polyhedral, pa, pl);
+      case MeshKind::polyhedral: {
+        const detail::PolyContext poly{common, mesh.locator()};
+        const detail::BoxLattice* lattice = opts.lattice ? mesh.lattice() : nullptr;
+        if (!lattice) {
+          run(poly, drivers.polyhedral, pa, pl);
+          break;
+        }
+        // The grid of the same cells, with the polyMesh's driver for particles near its boundary.
+        std::optional<detail::Context> cartesian;
+        std::optional<detail::RectilinearContext> rectilinear;
+        if (lattice->cartesian)
+          cartesian.emplace(detail::Context{common, *lattice->cartesian});
+        else
+          rectilinear.emplace(detail::RectilinearContext{common, *lattice->rectilinear});
+        run(detail::lattice_context(poly, cartesian ? &*cartesian : nullptr, rectilinear ? &*rectilinear : nullptr,
+                                    *lattice),
+            detail::lattice_particle, pa, pl);
         break;
+      }
     }
     Report rep;
     try {
@@ -465,9 +482,25 @@ struct Engine::Impl {
     have_field = true;
     report = rep;
     std::copy(field().begin(), field().end(), out.begin());
-    log->info("computed {} particles with {} on a {}: {} moved, {} sub-elements, {} on the fast path, {} outside",
-              pa.n, to_string(opts.method), mesh.kind_name(), acc.moved(), rep.sub_elements, rep.fast_path_particles,
-              rep.outside_particles);
+    if (log->should_log(spdlog::level::info))  // the note allocates: steady-state computes must not
+      log->info("computed {} particles with {} on a {}{}: {} moved, {} sub-elements, {} on the fast path, {} outside",
+                pa.n, to_string(opts.method), mesh.kind_name(), lattice_note(), acc.moved(), rep.sub_elements,
+                rep.fast_path_particles, rep.outside_particles);
+  }
+
+  /// How the polyMesh's box lattice served this compute ("" when it did not).
+  std::string lattice_note() const {
+    const detail::BoxLattice* l = mesh.lattice();
+    if (!l) return "";
+    std::ostringstream note;
+    note << " (a lattice of " << l->cells[0] << " x " << l->cells[1] << " x " << l->cells[2] << " box cells, "
+         << (l->cartesian ? "uniform" : "graded");
+    if (opts.lattice)
+      note << ": " << lattice_particles << " particles on the " << (l->cartesian ? "Cartesian" : "rectilinear")
+           << " grid's path)";
+    else
+      note << ", not used: lattice=0)";
+    return note.str();
   }
 
   /// Phase 1 with the mesh kind's context: particles turn into deposits.
@@ -632,6 +665,7 @@ struct Engine::Impl {
   /// failure: callers call it before they change the field.
   Report gather_report(const ParticleArrays& pa, double particle_volume_sum) {
     Report rep{};
+    lattice_particles = 0;
     rep.particles = pa.n;
     rep.particle_volume = particle_volume_sum;
     rep.particle_grid_min = std::numeric_limits<std::int64_t>::max();
@@ -640,6 +674,7 @@ struct Engine::Impl {
       rep.fast_path_particles += s.fast_path;
       rep.sub_elements += s.sub_elements;
       rep.outside_particles += s.outside_particles;
+      lattice_particles += s.lattice_particles;
       rep.particle_grid_min = std::min(rep.particle_grid_min, s.grid_min);
       rep.particle_grid_max = std::max(rep.particle_grid_max, s.grid_max);
       first_error = std::min(first_error, s.first_error);
@@ -670,6 +705,8 @@ struct Engine::Impl {
   /// particles under a point method).
   std::int64_t overfull_cells = 0;
   double overfull_volume = 0;
+  /// Particles of the last compute that the box lattice's grid path took.
+  std::int64_t lattice_particles = 0;
   void count_overfull() {
     overfull_cells = 0;
     overfull_volume = 0;
@@ -914,6 +951,8 @@ double Engine::last_report_value(std::string_view key) const {
       {"touched_cells", impl_->have_field && touched ? double(touched->size()) : -1.0},
       {"overfull_cells", double(impl_->overfull_cells)},
       {"overfull_volume", impl_->overfull_volume},
+      {"lattice_cells", impl_->mesh.lattice() ? double(impl_->mesh.cell_count()) : 0.0},
+      {"lattice_particles", double(impl_->have_field ? impl_->lattice_particles : 0)},
   };
   std::string known;
   for (const auto& [name, value] : facts) {

@@ -41,6 +41,7 @@ EngineMesh::EngineMesh(std::unique_ptr<PolyMesh> mesh) : kind_(MeshKind::polyhed
                       "; cyclic patches are not supported. Use a mesh without cyclic patches (e.g. change them "
                       "to walls or patches) or, for a box, a rectilinear or Cartesian grid with periodic axes");
   locator_ = std::make_unique<CellLocator>(*poly_);
+  lattice_ = find_box_lattice(*poly_);
   cells_ = poly_->cell_count();
   const auto v = poly_->cell_volumes();
   v_min_ = *std::min_element(v.begin(), v.end());

@@ -4,6 +4,7 @@
 // (methods/registry.hpp): the engine dispatches on the kind once per compute.
 #pragma once
 
+#include "box_lattice.hpp"
 #include "cartesian_grid.hpp"
 #include "polymesh/locators.hpp"
 #include "polymesh/polymesh.hpp"
@@ -48,6 +49,9 @@ class EngineMesh {
   const RectilinearGrid* rectilinear() const { return rectilinear_ ? &*rectilinear_ : nullptr; }
   const PolyMesh* polyhedral() const { return poly_.get(); }
   const CellLocator* locator() const { return locator_.get(); }
+  /// A polyMesh whose cells are a lattice of axis-aligned boxes: that lattice (found once,
+  /// at creation), else null.
+  const BoxLattice* lattice() const { return lattice_ ? &*lattice_ : nullptr; }
 
   /// The cells as polyhedra (points, faces, owner, neighbour) for writers that draw them;
   /// built on demand for the grids. Null for a Cartesian grid (writers use ImageData).
@@ -64,6 +68,7 @@ class EngineMesh {
   std::optional<RectilinearGrid> rectilinear_;
   std::unique_ptr<PolyMesh> poly_;
   std::unique_ptr<CellLocator> locator_;
+  std::optional<BoxLattice> lattice_;
 };
 
 }  // namespace vfe::detail

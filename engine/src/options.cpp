@@ -191,6 +191,8 @@ const OptionSpec kOptions[] = {
      [](const Options& o) { return print_bool(o.fast_path); }},
     {"rotation_bank", [](Options& o, std::string_view k, std::string_view v) { o.rotation_bank = parse_bool(k, v); },
      [](const Options& o) { return print_bool(o.rotation_bank); }},
+    {"lattice", [](Options& o, std::string_view k, std::string_view v) { o.lattice = parse_bool(k, v); },
+     [](const Options& o) { return print_bool(o.lattice); }},
     {"incremental", [](Options& o, std::string_view k, std::string_view v) { o.incremental = parse_bool(k, v); },
      [](const Options& o) { return print_bool(o.incremental); }},
     {"move_tolerance",

@@ -54,6 +54,9 @@ struct Options {
   // (docs/performance.md).
   bool fast_path = true;      ///< a particle inside one cell: one deposit, no sub-elements
   bool rotation_bank = true;  ///< orientation=random from a bank of pre-built rotations
+  /// A polyMesh whose cells are a lattice of axis-aligned boxes computes on the grid of
+  /// the same cells (0: the general polyMesh path).
+  bool lattice = true;
   /// Keep each particle's deposits; the next compute redoes only particles that moved by
   /// more than move_tolerance (or changed radius, orientation or shape).
   bool incremental = false;

@@ -56,7 +56,7 @@ TEST(PolyMeshEngine, UniformBoxMatchesTheCartesianGrid) {
   ASSERT_EQ(p.radii.size(), 20000u);
   std::vector<double> fp(poly.cell_count()), fc(cart.cell_count());
   for (const char* m : {"method=direct", "method=pmm particle_grid=64", "method=pmm"}) {
-    poly.configure(std::string(m) + " deterministic=1");
+    poly.configure(std::string(m) + " deterministic=1 lattice=0");  // the general polyMesh path
     cart.configure(std::string(m) + " deterministic=1");
     poly.compute(p.view(), fp);
     cart.compute(p.view(), fc);

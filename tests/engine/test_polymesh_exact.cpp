@@ -61,7 +61,7 @@ TEST(PolyMeshExact, UniformBoxMatchesTheCartesianExact) {
     for (const char* outside : {"drop", "nearest"}) {
       if (p == &loose && std::string(outside) == "nearest") continue;
       const std::string options = std::string("method=exact deterministic=1 outside=") + outside;
-      poly.configure(options);
+      poly.configure(options + " lattice=0");  // the general polyMesh path
       cart.configure(options);
       poly.compute(p->view(), fp);
       cart.compute(p->view(), fc);
@@ -80,8 +80,10 @@ TEST(PolyMeshExact, GradedBoxCellsMatchTheBoxClosedForm) {
   const vfe::PolyMesh mesh = vfe::PolyMesh::read(kData + "openfoam/box_graded");
   vfe::Engine e(vfe::PolyMeshSpec{kData + "openfoam/box_graded"});
   const Particles bed = packed_bed(2000);
-  std::vector<double> f(e.cell_count()), expected(e.cell_count(), 0.0);
-  e.configure("method=exact outside=drop");
+  std::vector<double> f(e.cell_count()), expected(e.cell_count(), 0.0), lattice(e.cell_count());
+  e.configure("method=exact outside=drop lattice=1");  // on the rectilinear grid of the same cells
+  e.compute(bed.view(), lattice);
+  e.configure("method=exact outside=drop lattice=0");  // the general polyMesh path
   e.compute(bed.view(), f);
   for (std::int64_t c = 0; c < mesh.cell_count(); ++c) {
     const Eigen::AlignedBox3d& box = mesh.cell_bounds(c);
@@ -97,6 +99,7 @@ TEST(PolyMeshExact, GradedBoxCellsMatchTheBoxClosedForm) {
     }
   }
   EXPECT_LT(l1(f, expected), 1e-12 * bed.volume());
+  EXPECT_LT(l1(lattice, expected), 1e-12 * bed.volume());
 }
 
 TEST(PolyMeshExact, VolumeIsConservedOnCurvedAndSnappyMeshes) {

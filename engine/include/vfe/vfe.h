@@ -172,7 +172,10 @@ VFE_API vfe_status vfe_last_report(const vfe_engine* e, vfe_report* out);
  *  "moved_particles" (particles computed anew; with incremental=1 those that moved),
  *  "touched_cells" (cells with solid volume; with touched_only=1, else -1), "overfull_cells"
  *  and "overfull_volume" (cells whose solid volume exceeds their volume, eps < 0, and the
- *  excess: a scene that does not match the mesh, or cells smaller than the particles). Unknown keys
+ *  excess: a scene that does not match the mesh, or cells smaller than the particles),
+ *  "lattice_cells" (the cells of a polyMesh whose cells are a lattice of axis-aligned boxes,
+ *  0 for other meshes) and "lattice_particles" (particles that took that lattice's grid
+ *  path, option lattice=1). Unknown keys
  *  give VFE_ERROR_INVALID_ARGUMENT. New facts get new keys, so vfe_report never changes. */
 VFE_API vfe_status vfe_last_report_value(const vfe_engine* e, const char* key, double* out);
 

@@ -47,6 +47,7 @@ struct Scratch {
   std::vector<std::int32_t> cell_face_offsets, cell_face_points;
   std::vector<Eigen::Vector3d> mapped_points;    // exact shapes: a cell's vertices in the ellipsoid's frame
   std::int64_t fast_path = 0, sub_elements = 0, outside_particles = 0;
+  std::int64_t lattice_particles = 0;  // polyMesh of box cells: particles the grid's driver took
   std::int64_t first_error = std::numeric_limits<std::int64_t>::max();
   std::int64_t grid_min = std::numeric_limits<std::int64_t>::max(), grid_max = 0;
 
@@ -105,7 +106,7 @@ struct Scratch {
   std::vector<std::int32_t> poly_bin_near;
 
   void reset_counters() {
-    fast_path = sub_elements = outside_particles = grid_max = 0;
+    fast_path = sub_elements = outside_particles = lattice_particles = grid_max = 0;
     first_error = grid_min = std::numeric_limits<std::int64_t>::max();
   }
 
