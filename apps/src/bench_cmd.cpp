@@ -326,6 +326,7 @@ using Record = std::vector<Field>;
 Record record_of(const BenchRow& r) {
   return {{"scene", r.scene},
           {"dispersity", r.dispersity},
+          {"order", r.order},
           {"particles", r.particles},
           {"chi", r.chi},
           {"cell_size", r.cell_size},
@@ -463,6 +464,37 @@ void print_line(std::ostream& out, std::int64_t n, double chi, const std::string
 
 }  // namespace
 
+void sort_morton(BenchScene& s) {
+  // Spread 21 bits so that two zero bits follow each: x's bits land at 0, 3, 6, ...
+  auto spread = [](std::uint64_t v) {
+    v &= 0x1fffff;
+    v = (v | v << 32) & 0x1f00000000ffffull;
+    v = (v | v << 16) & 0x1f0000ff0000ffull;
+    v = (v | v << 8) & 0x100f00f00f00f00full;
+    v = (v | v << 4) & 0x10c30c30c30c30c3ull;
+    v = (v | v << 2) & 0x1249249249249249ull;
+    return v;
+  };
+  std::vector<std::pair<std::uint64_t, std::int64_t>> keys(static_cast<std::size_t>(s.n));
+  for (std::int64_t p = 0; p < s.n; ++p) {
+    std::uint64_t key = 0;
+    for (int d = 0; d < 3; ++d) {
+      const double t = (s.centres[3 * p + d] - s.lo[d]) / std::max(s.hi[d] - s.lo[d], 1e-300);
+      key |= spread(static_cast<std::uint64_t>(std::clamp(t, 0.0, 1.0) * double(0x1fffff))) << d;
+    }
+    keys[p] = {key, p};
+  }
+  std::sort(keys.begin(), keys.end());
+  std::vector<double> centres(s.centres.size()), radii(s.radii.size());
+  for (std::int64_t q = 0; q < s.n; ++q) {
+    const std::int64_t p = keys[q].second;
+    for (int d = 0; d < 3; ++d) centres[3 * q + d] = s.centres[3 * p + d];
+    radii[q] = s.radii[p];
+  }
+  s.centres.swap(centres);
+  s.radii.swap(radii);
+}
+
 BenchScene make_bench_scene(const std::string& scene, const std::string& dispersity, std::int64_t n,
                             std::uint64_t seed) {
   check_scene_kind(scene, dispersity);
@@ -535,6 +567,8 @@ BenchOutcome run_bench(const BenchCommand& c) {
   share_one_malloc_arena();
   // Every argument is checked before the first (possibly long) scene is made.
   check_scene_kind(c.scene, c.dispersity);
+  if (c.order != "shuffled" && c.order != "morton")
+    bad_argument("--order: unknown order '" + c.order + "'; expected shuffled or morton");
   const std::vector<std::int64_t> counts = particle_counts(c.particles);
   if (c.chi.empty()) bad_argument("--chi: no value; give cell size / mean diameter such as 1,2");
   for (double x : c.chi)
@@ -572,7 +606,8 @@ BenchOutcome run_bench(const BenchCommand& c) {
   const std::size_t total_rows = counts.size() * c.chi.size() * threads.size() * methods.size();
   for (const std::int64_t n : counts) {
     const auto t_scene = Clock::now();
-    const BenchScene scene = make_bench_scene(c.scene, c.dispersity, n, c.seed);
+    BenchScene scene = make_bench_scene(c.scene, c.dispersity, n, c.seed);
+    if (c.order == "morton") sort_morton(scene);
     log->info("{} ({}): {} particles, solid fraction {:.3f}, mean diameter {:.4g}, made in {:.2f} s", scene.name,
               scene.dispersity, n, scene.solid_fraction, scene.mean_diameter, ms_since(t_scene) * 1e-3);
     vfe::ParticleView view;
@@ -649,6 +684,7 @@ BenchOutcome run_bench(const BenchCommand& c) {
 
           const bool have_memory = before_engine >= 0 && before_compute >= 0;
           row.scene = scene.name;
+          row.order = c.order;
           row.dispersity = scene.dispersity;
           row.method = method;
           row.options = engine.options();
@@ -743,6 +779,10 @@ CliCommand register_bench(CLI::App& app) {
   bench->add_option("--scene", args->bench_cmd.scene, "bed (packed, solid fraction 0.58) or stream (dilute, 0.05)")
       ->capture_default_str();
   bench->add_option("--dispersity", args->bench_cmd.dispersity, "mono (diameter 1) or poly (uniform in [0.7, 1.3])")
+      ->capture_default_str();
+  bench->add_option("--order", args->bench_cmd.order,
+                    "The particles' order: shuffled (as after a DEM code's neighbour-list rebuild) or morton (sorted "
+                    "along a Z-order curve)")
       ->capture_default_str();
   bench->add_option("-n,--particles", args->bench_cmd.particles,
                     "Particle counts, a list (default 1e4,1e5; e.g. 1e4,1e5,1e6,4e6)")

@@ -23,6 +23,7 @@ namespace vfe::apps {
 struct BenchCommand {
   std::string scene = "bed";       ///< bed (packed, solid fraction 0.58) or stream (dilute, 0.05)
   std::string dispersity = "mono"; ///< mono (diameter 1) or poly (uniform in [0.7, 1.3])
+  std::string order = "shuffled";  ///< the particles' order: shuffled (a DEM code's after rebuilds) or morton
   std::vector<double> particles{1e4, 1e5};
   std::vector<double> chi{2.0};    ///< cell size / mean diameter
   std::vector<int> threads{1, 2};  ///< 0 = all
@@ -55,9 +56,14 @@ struct BenchScene {
 BenchScene make_bench_scene(const std::string& scene, const std::string& dispersity, std::int64_t n,
                             std::uint64_t seed);
 
+/// Reorders the scene's particles along a Morton (Z-order) curve of their centres, 2^21
+/// steps per axis over the scene's box: neighbours in space become neighbours in memory.
+void sort_morton(BenchScene& scene);
+
 /// One (particles, chi, threads, method) timing.
 struct BenchRow {
   std::string scene, dispersity, method;
+  std::string order;    ///< shuffled or morton
   std::string options;  ///< the engine's full option string
   std::int64_t particles = 0;
   double chi = 0, cell_size = 0, solid_fraction = 0;

@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -59,6 +60,31 @@ TEST(BenchScene, FractionsAndShuffledOrder) {
   EXPECT_EQ(a.centres, b.centres);
   EXPECT_EQ(a.radii, b.radii);
   EXPECT_NE(a.radii, make_bench_scene("bed", "poly", 1000, 4).radii);
+}
+
+TEST(BenchScene, MortonOrderKeepsTheParticlesAndPutsNeighboursTogether) {
+  const BenchScene shuffled = make_bench_scene("bed", "poly", 5000, 7);
+  BenchScene sorted = shuffled;
+  sort_morton(sorted);
+  // The same particles (centre and radius together), in another order.
+  auto as_set = [](const BenchScene& s) {
+    std::vector<std::array<double, 4>> v;
+    for (std::int64_t p = 0; p < s.n; ++p)
+      v.push_back({s.centres[3 * p], s.centres[3 * p + 1], s.centres[3 * p + 2], s.radii[p]});
+    std::sort(v.begin(), v.end());
+    return v;
+  };
+  EXPECT_EQ(as_set(sorted), as_set(shuffled));
+  // Consecutive particles lie close: the mean step is a few diameters, not the bed's size.
+  auto mean_step = [](const BenchScene& s) {
+    double sum = 0;
+    for (std::int64_t p = 1; p < s.n; ++p)
+      sum += std::hypot(s.centres[3 * p] - s.centres[3 * p - 3], s.centres[3 * p + 1] - s.centres[3 * p - 2],
+                        s.centres[3 * p + 2] - s.centres[3 * p - 1]);
+    return sum / double(s.n - 1);
+  };
+  EXPECT_LT(mean_step(sorted), 3.0);
+  EXPECT_GT(mean_step(shuffled), 5.0);
 }
 
 TEST(Bench, TinyBedRowsRatesAndVolume) {
@@ -117,6 +143,9 @@ TEST(Bench, BadArgumentsAreNamed) {
   const std::string option_error = error_of(c);
   EXPECT_NE(option_error.find("--options"), std::string::npos);
   EXPECT_NE(option_error.find("no_such_key"), std::string::npos);
+  c = tiny_command(dir / "bench");
+  c.order = "hilbert";
+  EXPECT_NE(error_of(c).find("--order"), std::string::npos);
   c = tiny_command(dir / "bench");
   c.options = "threads=4";
   EXPECT_NE(error_of(c).find("--threads"), std::string::npos);
