@@ -1001,6 +1001,34 @@ void Engine::cell_centres(std::span<double> out) const {
   }
 }
 
+void Engine::locate(std::span<const double> points, std::span<std::int64_t> cells) const {
+  check_size(points.size(), 3 * static_cast<std::int64_t>(cells.size()), "points", "3 per point");
+  const detail::EngineMesh& m = impl_->mesh;
+  for (std::size_t i = 0; i < cells.size(); ++i) {
+    const Eigen::Vector3d x(points[3 * i], points[3 * i + 1], points[3 * i + 2]);
+    cells[i] = m.cartesian()     ? m.cartesian()->locate(m.wrap(x))
+               : m.rectilinear() ? m.rectilinear()->locate(m.wrap(x))
+                                 : m.locator()->locate(x);
+  }
+}
+
+PolyMeshBuffers read_polymesh_buffers(const std::string& dir) {
+  const PolyMeshData m = read_polymesh(dir);
+  PolyMeshBuffers b;
+  b.points.reserve(3 * m.points.size());
+  for (const Eigen::Vector3d& p : m.points) b.points.insert(b.points.end(), {p[0], p[1], p[2]});
+  b.face_offsets = m.face_offsets;
+  b.face_points = m.face_points;
+  b.owner = m.owner;
+  b.neighbour = m.neighbour;
+  for (const PolyPatch& p : m.patches) b.patches.push_back({p.name, p.type, p.start_face, p.n_faces});
+  return b;
+}
+
+std::vector<std::int64_t> read_polymesh_labels(const std::string& dir, const std::string& name) {
+  return read_label_list_file(dir, name);
+}
+
 Engine::PolyTopology Engine::poly_topology() const {
   std::unique_ptr<PolyMesh> built = impl_->mesh.polyhedra();
   const PolyMesh* mesh = built ? built.get() : impl_->mesh.polyhedral();

@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <climits>
+#include <string>
+#include <type_traits>
 #include <utility>
 
 namespace vfe::mpi {
@@ -74,37 +76,39 @@ int as_count(std::int64_t n) {
 
 }  // namespace
 
-Halo::Halo(MPI_Comm comm, const Decomposition& dec, int rank) {
+std::vector<HaloPeer> cartesian_halo(const Decomposition& dec, int rank) {
   const Box my_block = dec.blocks[static_cast<std::size_t>(rank)];
   const Box my_ext = dec.extended(rank);
-  extended_extent_ = my_ext.extent();
-  owned_extent_ = my_block.extent();
+  const Index3 extended_extent = my_ext.extent(), owned_extent = my_block.extent();
   const std::vector<Index3> shifts = image_shifts(dec);
   const Index3 zero{0, 0, 0};
+  std::vector<HaloPeer> peers;
   for (int q = 0; q < static_cast<int>(dec.blocks.size()); ++q) {
-    NeighbourBoxes nb;
-    nb.rank = q;
+    HaloPeer peer;
+    peer.rank = q;
     const Box q_ext = dec.extended(q);
     for (const Index3& s : shifts) {
       if (q == rank && s == zero) continue;  // the owned block itself
       // Ghosts here owned by q through image s, and cells owned here that q holds as ghosts
       // through the same image: q iterates the same shifts, so the lists pair up in order.
       const Box ghost = intersect(my_ext, shifted(dec.blocks[static_cast<std::size_t>(q)], s));
-      if (!ghost.empty()) {
-        nb.ghost.push_back(shifted(ghost, {-my_ext.lo[0], -my_ext.lo[1], -my_ext.lo[2]}));
-        nb.ghost_cells += ghost.count();
-      }
+      if (!ghost.empty())
+        for_each_cell(shifted(ghost, {-my_ext.lo[0], -my_ext.lo[1], -my_ext.lo[2]}), extended_extent,
+                      [&](std::int64_t c) { peer.ghost.push_back(c); });
       const Box theirs = intersect(q_ext, shifted(my_block, s));
-      if (!theirs.empty()) {
-        nb.owned.push_back(shifted(theirs, {-s[0] - my_block.lo[0], -s[1] - my_block.lo[1], -s[2] - my_block.lo[2]}));
-        nb.owned_cells += theirs.count();
-      }
+      if (!theirs.empty())
+        for_each_cell(shifted(theirs, {-s[0] - my_block.lo[0], -s[1] - my_block.lo[1], -s[2] - my_block.lo[2]}),
+                      owned_extent, [&](std::int64_t c) { peer.owned.push_back(c); });
     }
-    if (!nb.ghost.empty() || !nb.owned.empty()) neighbours_.push_back(std::move(nb));
+    if (!peer.ghost.empty() || !peer.owned.empty()) peers.push_back(std::move(peer));
   }
-  // Sources and destinations are the same ranks (the relation is symmetric), in rank order.
+  return peers;
+}
+
+Halo::Halo(MPI_Comm comm, std::vector<HaloPeer> peers) : peers_(std::move(peers)) {
+  // Sources and destinations are the same ranks (the relation is symmetric).
   std::vector<int> ranks;
-  for (const NeighbourBoxes& nb : neighbours_) ranks.push_back(nb.rank);
+  for (const HaloPeer& p : peers_) ranks.push_back(p.rank);
   const int degree = static_cast<int>(ranks.size());
   MPI_Dist_graph_create_adjacent(comm, degree, ranks.data(), MPI_UNWEIGHTED, degree, ranks.data(), MPI_UNWEIGHTED,
                                  MPI_INFO_NULL, 0, &graph_);
@@ -120,31 +124,42 @@ Halo& Halo::operator=(Halo&& other) noexcept {
   if (this != &other) {
     if (graph_ != MPI_COMM_NULL) MPI_Comm_free(&graph_);
     graph_ = std::exchange(other.graph_, MPI_COMM_NULL);
-    extended_extent_ = other.extended_extent_;
-    owned_extent_ = other.owned_extent_;
-    neighbours_ = std::move(other.neighbours_);
+    peers_ = std::move(other.peers_);
   }
   return *this;
 }
 
 std::int64_t Halo::ghost_cells_sent() const {
   std::int64_t n = 0;
-  for (const NeighbourBoxes& nb : neighbours_) n += nb.ghost_cells;
+  for (const HaloPeer& p : peers_) n += static_cast<std::int64_t>(p.ghost.size());
   return n;
 }
 
-void Halo::exchange(const std::vector<double>& send, const std::vector<int>& send_counts, std::vector<double>& recv,
-                    const std::vector<int>& recv_counts) const {
-  const std::size_t n = neighbours_.size();
+template <class T>
+void neighbour_exchange(MPI_Comm graph, int degree, const std::vector<T>& send, const std::vector<int>& send_counts,
+                        std::vector<T>& recv, std::vector<int>& recv_counts) {
+  static_assert(std::is_same_v<T, double> || std::is_same_v<T, std::int64_t>);
+  const MPI_Datatype type = std::is_same_v<T, double> ? MPI_DOUBLE : MPI_INT64_T;
+  const std::size_t n = static_cast<std::size_t>(degree);
+  recv_counts.assign(n, 0);
+  if (MPI_Neighbor_alltoall(send_counts.data(), 1, MPI_INT, recv_counts.data(), 1, MPI_INT, graph) != MPI_SUCCESS)
+    throw Error(VFE_ERROR_INTERNAL, "the halo's count exchange (MPI_Neighbor_alltoall) failed");
   std::vector<int> send_displs(n, 0), recv_displs(n, 0);
+  std::int64_t total = n ? recv_counts[0] : 0;
   for (std::size_t i = 1; i < n; ++i) {
-    send_displs[i] = send_displs[i - 1] + send_counts[i - 1];
-    recv_displs[i] = recv_displs[i - 1] + recv_counts[i - 1];
+    send_displs[i] = as_count(std::int64_t(send_displs[i - 1]) + send_counts[i - 1]);
+    recv_displs[i] = as_count(std::int64_t(recv_displs[i - 1]) + recv_counts[i - 1]);
+    total += recv_counts[i];
   }
-  const int rc = MPI_Neighbor_alltoallv(send.data(), send_counts.data(), send_displs.data(), MPI_DOUBLE, recv.data(),
-                                        recv_counts.data(), recv_displs.data(), MPI_DOUBLE, graph_);
-  if (rc != MPI_SUCCESS) throw Error(VFE_ERROR_INTERNAL, "the halo exchange (MPI_Neighbor_alltoallv) failed");
+  recv.resize(static_cast<std::size_t>(total));
+  if (MPI_Neighbor_alltoallv(send.data(), send_counts.data(), send_displs.data(), type, recv.data(), recv_counts.data(),
+                             recv_displs.data(), type, graph) != MPI_SUCCESS)
+    throw Error(VFE_ERROR_INTERNAL, "the halo exchange (MPI_Neighbor_alltoallv) failed");
 }
+template void neighbour_exchange<double>(MPI_Comm, int, const std::vector<double>&, const std::vector<int>&,
+                                         std::vector<double>&, std::vector<int>&);
+template void neighbour_exchange<std::int64_t>(MPI_Comm, int, const std::vector<std::int64_t>&,
+                                               const std::vector<int>&, std::vector<std::int64_t>&, std::vector<int>&);
 
 void Halo::reverse_sum(std::span<const double> extended, std::span<double> owned, int components) const {
   run(true, extended, owned, components);
@@ -154,38 +169,31 @@ void Halo::forward_fill(std::span<const double> owned, std::span<double> extende
   run(false, owned, extended, components);
 }
 
-// One plan, two directions: reverse sends ghost boxes and adds into owned boxes, forward
-// sends owned boxes and overwrites ghost boxes.
+// One plan, two directions: reverse sends ghost cells and adds into owned cells, forward
+// sends owned cells and overwrites ghost cells.
 void Halo::run(bool reverse, std::span<const double> from, std::span<double> to, int components) const {
   const std::size_t k = static_cast<std::size_t>(components);
-  const Index3& from_extent = reverse ? extended_extent_ : owned_extent_;
-  const Index3& to_extent = reverse ? owned_extent_ : extended_extent_;
   std::vector<double> send, recv;
   std::vector<int> send_counts, recv_counts;
-  std::int64_t recv_total = 0;
-  for (const NeighbourBoxes& nb : neighbours_) {
-    for (const Box& b : reverse ? nb.ghost : nb.owned)
-      for_each_cell(b, from_extent, [&](std::int64_t c) {
-        for (std::size_t j = 0; j < k; ++j) send.push_back(from[static_cast<std::size_t>(c) * k + j]);
-      });
-    const std::int64_t sent = reverse ? nb.ghost_cells : nb.owned_cells;
-    const std::int64_t received = reverse ? nb.owned_cells : nb.ghost_cells;
-    send_counts.push_back(as_count(sent * components));
-    recv_counts.push_back(as_count(received * components));
-    recv_total += received * components;
+  for (const HaloPeer& p : peers_) {
+    const std::vector<std::int64_t>& out = reverse ? p.ghost : p.owned;
+    for (const std::int64_t c : out)
+      for (std::size_t j = 0; j < k; ++j) send.push_back(from[static_cast<std::size_t>(c) * k + j]);
+    send_counts.push_back(as_count(static_cast<std::int64_t>(out.size()) * components));
   }
-  as_count(static_cast<std::int64_t>(send.size()));
-  recv.resize(static_cast<std::size_t>(as_count(recv_total)));
-  exchange(send, send_counts, recv, recv_counts);
+  neighbour_exchange(graph_, static_cast<int>(peers_.size()), send, send_counts, recv, recv_counts);
   std::size_t at = 0;
-  for (const NeighbourBoxes& nb : neighbours_)
-    for (const Box& b : reverse ? nb.owned : nb.ghost)
-      for_each_cell(b, to_extent, [&](std::int64_t c) {
-        for (std::size_t j = 0; j < k; ++j) {
-          double& cell = to[static_cast<std::size_t>(c) * k + j];
-          cell = reverse ? cell + recv[at++] : recv[at++];
-        }
-      });
+  for (const HaloPeer& p : peers_) {
+    const std::vector<std::int64_t>& in = reverse ? p.owned : p.ghost;
+    if (recv_counts[static_cast<std::size_t>(&p - peers_.data())] != static_cast<std::int64_t>(in.size() * k))
+      throw Error(VFE_ERROR_INTERNAL, "a halo message from rank " + std::to_string(p.rank) +
+                                          " does not match this rank's plan; please report this");
+    for (const std::int64_t c : in)
+      for (std::size_t j = 0; j < k; ++j) {
+        double& cell = to[static_cast<std::size_t>(c) * k + j];
+        cell = reverse ? cell + recv[at++] : recv[at++];
+      }
+  }
 }
 
 }  // namespace vfe::mpi

@@ -40,20 +40,27 @@ struct Decomposition {
   Box extended(int rank) const;
 };
 
-/// Cells sent to or received from one neighbour, as boxes whose shapes pair up with the
-/// neighbour's own list (same boxes, same order, cells x fastest within a box).
-struct NeighbourBoxes {
+/// Cells exchanged with one neighbour, as cell indices in orders that pair up with the
+/// neighbour's own lists: `ghost` indexes this rank's local field (owned + ghost cells) at
+/// the cells owned there, in the order the neighbour lists them in its `owned`; `owned`
+/// indexes this rank's owned field at the cells the neighbour holds as ghosts, in the order
+/// of the neighbour's `ghost`. An index may repeat (a cell seen through two periodic images).
+struct HaloPeer {
   int rank = -1;
-  std::vector<Box> ghost;  // in this rank's extended-block coordinates: its ghosts owned there
-  std::vector<Box> owned;  // in this rank's owned-block coordinates: cells it owns that are ghosts there
-  std::int64_t ghost_cells = 0, owned_cells = 0;
+  std::vector<std::int64_t> ghost, owned;
 };
+
+/// The plan of a block-decomposed Cartesian grid: per neighbour the boxes of ghosts owned
+/// there and of owned cells that are ghosts there, enumerated in the periodic shifts' order
+/// both sides share, cells x fastest within a box.
+std::vector<HaloPeer> cartesian_halo(const Decomposition& dec, int rank);
 
 class Halo {
  public:
   Halo() = default;
-  /// Builds the plan and the graph communicator; collective over comm.
-  Halo(MPI_Comm comm, const Decomposition& dec, int rank);
+  /// Builds the graph communicator of the peers (which must name each other: the relation
+  /// is symmetric); collective over comm.
+  Halo(MPI_Comm comm, std::vector<HaloPeer> peers);
   ~Halo();
   Halo(Halo&& other) noexcept;
   Halo& operator=(Halo&& other) noexcept;
@@ -61,21 +68,25 @@ class Halo {
   Halo& operator=(const Halo&) = delete;
 
   /// owned += the ghosts other ranks (or this one, across a periodic wall) hold for it;
-  /// extended is the local field on the extended block, k values per cell. Collective.
+  /// extended is the local field (owned + ghost cells), k values per cell. Collective.
   void reverse_sum(std::span<const double> extended, std::span<double> owned, int components) const;
   /// extended's ghost cells = their owners' values; owned cells are not written. Collective.
   void forward_fill(std::span<const double> owned, std::span<double> extended, int components) const;
 
-  const std::vector<NeighbourBoxes>& neighbours() const { return neighbours_; }
+  const std::vector<HaloPeer>& peers() const { return peers_; }
+  /// Ghost cells whose values this rank sends in one reverse sum.
   std::int64_t ghost_cells_sent() const;
 
  private:
   void run(bool reverse, std::span<const double> from, std::span<double> to, int components) const;
-  void exchange(const std::vector<double>& send, const std::vector<int>& send_counts, std::vector<double>& recv,
-                const std::vector<int>& recv_counts) const;
   MPI_Comm graph_ = MPI_COMM_NULL;
-  Index3 extended_extent_{0, 0, 0}, owned_extent_{0, 0, 0};
-  std::vector<NeighbourBoxes> neighbours_;
+  std::vector<HaloPeer> peers_;
 };
+
+/// One MPI_Neighbor_alltoallv of `send` (counts per neighbour of graph, in its order) into
+/// recv (resized); the receive counts are exchanged first. Collective over graph.
+template <class T>
+void neighbour_exchange(MPI_Comm graph, int degree, const std::vector<T>& send, const std::vector<int>& send_counts,
+                        std::vector<T>& recv, std::vector<int>& recv_counts);
 
 }  // namespace vfe::mpi

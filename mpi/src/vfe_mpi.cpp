@@ -1,11 +1,12 @@
-// vfe_mpi: an ordinary vfe engine per rank on its block plus ghosts, a reverse halo sum of
-// the ghost deposits into their owners, and the C API's promises kept across ranks (every
-// collective call has the same status on every rank).
+// vfe_mpi: an ordinary vfe engine per rank on its block (or processor mesh) plus ghosts, a
+// reverse halo sum of the ghost deposits into their owners, and the C API's promises kept
+// across ranks (every collective call has the same status on every rank).
 #include <vfe/vfe_mpi.h>
 
 #include <vfe/engine.hpp>
 
 #include "halo.hpp"
+#include "polymesh_ghosts.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -24,12 +25,27 @@ using vfe::mpi::Decomposition;
 using vfe::mpi::Halo;
 using vfe::mpi::Index3;
 
+// A decomposed polyMesh: this rank's cells with their global ids, and the ghost layer the
+// local engine is built on (owned cells first, then ghosts).
+struct DistributedPolyMesh {
+  vfe::mpi::RankPolyMesh mesh;
+  std::vector<double> boxes;           // per owned cell: lo xyz, hi xyz
+  std::vector<double> volumes;         // per owned cell
+  double largest_cell = 0;             // largest bounding-box side of any cell on any rank
+  double width = -1;                   // of the current ghost layer (length)
+  std::vector<std::int64_t> cell_ids;  // global cell per local cell
+  std::vector<int> ghost_owner;        // per ghost
+  std::vector<std::int64_t> rim;       // ghosts on the layer's outer edge
+  std::int64_t ghost_bytes = 0;
+};
+
 struct vfe_mpi_engine {
   MPI_Comm comm = MPI_COMM_NULL;
   int rank = 0, size = 1;
   std::array<double, 3> origin{}, spacing{};
   Decomposition dec;
-  std::unique_ptr<vfe::Engine> local;  // on dec.extended(rank)
+  std::unique_ptr<DistributedPolyMesh> poly;  // set for a polyMesh; dec is unused then
+  std::unique_ptr<vfe::Engine> local;  // on dec.extended(rank), or a polyMesh's owned + ghost cells
   Halo halo;
   std::vector<double> extended;        // the local engine's field
   std::vector<double> solid;           // owned cells after the halo sum
@@ -41,8 +57,10 @@ struct vfe_mpi_engine {
   void* log_user = nullptr;
 
   Box block() const { return dec.blocks[static_cast<std::size_t>(rank)]; }
-  std::int64_t owned_cells() const { return block().count(); }
-  double cell_volume() const { return spacing[0] * spacing[1] * spacing[2]; }
+  std::int64_t owned_cells() const { return poly ? poly->mesh.cell_count() : block().count(); }
+  double cell_volume(std::size_t c) const {
+    return poly ? poly->volumes[c] : spacing[0] * spacing[1] * spacing[2];
+  }
 };
 
 namespace {
@@ -71,7 +89,7 @@ void rebuild(vfe_mpi_engine& e, const Index3& ghost) {
   auto local = std::make_unique<vfe::Engine>(spec);
   if (e.local) local->configure(e.local->options());
   if (e.log_fn) local->set_log_callback(e.log_fn, e.log_user);
-  Halo halo(e.comm, dec, e.rank);
+  Halo halo(e.comm, vfe::mpi::cartesian_halo(dec, e.rank));
   e.dec = dec;
   e.local = std::move(local);
   e.halo = std::move(halo);
@@ -156,6 +174,18 @@ Index3 centre_cell(const vfe_mpi_engine& e, const double* x) {
   return c;
 }
 
+int owner_of(const vfe_mpi_engine& e, const Index3& cell);
+
+// Rank owning the cell that holds x: on a polyMesh from the local mesh (-1 when x is in no
+// cell held here), on a grid from the blocks.
+int owner_rank(const vfe_mpi_engine& e, const double* x) {
+  if (!e.poly) return owner_of(e, centre_cell(e, x));
+  std::int64_t cell = -1;
+  e.local->locate({x, 3}, {&cell, 1});
+  if (cell < 0) return -1;
+  return cell < e.owned_cells() ? e.rank : e.poly->ghost_owner[static_cast<std::size_t>(cell - e.owned_cells())];
+}
+
 int owner_of(const vfe_mpi_engine& e, const Index3& cell) {
   // Blocks tile the grid, so exactly one holds the cell. Linear in the ranks (see
   // docs/scaling.md for when a lookup table would pay).
@@ -164,11 +194,13 @@ int owner_of(const vfe_mpi_engine& e, const Index3& cell) {
   return -1;
 }
 
-// How far beyond a particle's centre its deposits can land, per axis, in cells, plus one
-// cell so that a deposit never reaches the ghost layer's last cells (checked after compute).
-Index3 ghost_needed(const vfe_mpi_engine& e, double max_radius) {
+// How far beyond a particle's centre (per axis) the footprint of a particle of max_radius
+// reaches under the local engine's method, and how many cells more the method's stencil
+// takes (trilinear's cell centres).
+double footprint_reach(const vfe_mpi_engine& e, double max_radius, double& extra_cells) {
   const std::string method = e.local->option("method");
-  double reach = 0, extra_cells = 0;
+  double reach = 0;
+  extra_cells = 0;
   if (method == "direct")
     reach = 0;
   else if (method == "pmm" || method == "exact" || method == "divided" || method == "big_particle")
@@ -181,15 +213,44 @@ Index3 ghost_needed(const vfe_mpi_engine& e, double max_radius) {
     extra_cells = 1;  // the 8 cells whose centres surround the particle's centre
   else
     throw Error(VFE_ERROR_UNSUPPORTED, "method " + method + " has no known footprint in vfe_mpi");
+  return reach;
+}
+
+// The reach per axis in cells, plus one cell so that a deposit never reaches the ghost
+// layer's last cells (checked after compute).
+Index3 ghost_needed(const vfe_mpi_engine& e, double max_radius) {
+  double extra_cells = 0;
+  const double reach = footprint_reach(e, max_radius, extra_cells);
   Index3 g{};
   for (int d = 0; d < 3; ++d)
     g[d] = static_cast<std::int64_t>(std::ceil(reach / e.spacing[d])) + static_cast<std::int64_t>(extra_cells) + 1;
   return g;
 }
 
+// The ghost width (a length) a polyMesh needs for particles of max_radius whose centres lie
+// at most `beyond` outside this rank's cells (those outside the whole mesh): the footprint,
+// and when volume beyond the mesh goes to the nearest cells the cells whose centres can be nearest to a point of it
+// (within sqrt(3) (reach + beyond) + the owning cell's diagonal of the point), plus one
+// cell so that the layer's outer edge stays clear (checked after compute).
+double poly_width_needed(const vfe_mpi_engine& e, double max_radius, double beyond) {
+  double extra_cells = 0;
+  double reach = footprint_reach(e, max_radius, extra_cells) + beyond;
+  const double h = e.poly->largest_cell;
+  const std::string outside = e.local->option("outside");
+  // outside=error with a tolerance sends the tolerated volume to the nearest cells too.
+  if (outside == "nearest" || (outside == "error" && std::stod(e.local->option("outside_tolerance")) > 0))
+    reach += std::sqrt(3.0) * (reach + h);
+  return reach + (1.0 + extra_cells) * h * 1.01;
+}
+
 // Sum of |value| over the last ghost layer on each side that faces another block: the
 // margin cell of ghost_needed, which only a footprint wider than assumed can reach.
 double edge_layer_volume(const vfe_mpi_engine& e) {
+  if (e.poly) {
+    double sum = 0;
+    for (const std::int64_t c : e.poly->rim) sum += std::abs(e.extended[static_cast<std::size_t>(c)]);
+    return sum;
+  }
   const Box ext = e.dec.extended(e.rank);
   const Index3 n = ext.extent();
   double sum = 0;
@@ -215,6 +276,14 @@ double edge_layer_volume(const vfe_mpi_engine& e) {
 // Copies the owned cells between an extended-block field and an owned-cell field (k values
 // per cell): to_owned reads extended, else writes it.
 void copy_owned(const vfe_mpi_engine& e, bool to_owned, double* extended, double* owned, int k) {
+  if (e.poly) {  // owned cells come first
+    const std::size_t n = static_cast<std::size_t>(e.owned_cells() * k);
+    if (to_owned)
+      std::copy_n(extended, n, owned);
+    else
+      std::copy_n(owned, n, extended);
+    return;
+  }
   const Box ext = e.dec.extended(e.rank), b = e.block();
   const Index3 n = ext.extent(), m = b.extent();
   for (std::int64_t z = 0; z < m[2]; ++z)
@@ -288,9 +357,9 @@ int gather_report(vfe_mpi_engine& e, bool halo_failed, const double grid_extreme
   const vfe_report r = e.local->last_report();
   const double alpha_min = std::stod(e.local->option("alpha_min"));
   double deposited = 0, clipped = 0;
-  for (double v : e.solid) {
-    deposited += v;
-    if (alpha_min > 0) clipped += std::max(0.0, v - (1.0 - alpha_min) * e.cell_volume());
+  for (std::size_t c = 0; c < e.solid.size(); ++c) {
+    deposited += e.solid[c];
+    if (alpha_min > 0) clipped += std::max(0.0, e.solid[c] - (1.0 - alpha_min) * e.cell_volume(c));
   }
   double sums[9] = {double(r.particles), double(r.fast_path_particles), double(r.sub_elements),
                     r.particle_volume,   deposited,                      r.dropped_volume,
@@ -312,13 +381,142 @@ int gather_report(vfe_mpi_engine& e, bool halo_failed, const double grid_extreme
   return static_cast<int>(t[8]);
 }
 
+// Builds the local engine on the owned cells and a ghost layer of the given width, and its
+// halo plan; keeps the options and log callback of the engine it replaces. Collective.
+void rebuild_poly(vfe_mpi_engine& e, double width) {
+  DistributedPolyMesh& p = *e.poly;
+  vfe::mpi::GhostedPolyMesh g = vfe::mpi::build_ghosted(e.comm, p.mesh, p.boxes, width);
+  Halo halo(e.comm, std::move(g.peers));  // collective: before anything that may fail on one rank
+  auto local = std::make_unique<vfe::Engine>(g.mesh.view());
+  if (e.local) local->configure(e.local->options());
+  if (e.log_fn) local->set_log_callback(e.log_fn, e.log_user);
+  e.local = std::move(local);
+  e.halo = std::move(halo);
+  e.extended.assign(static_cast<std::size_t>(e.local->cell_count()), 0.0);
+  p.width = width;
+  p.cell_ids = std::move(g.cell_ids);
+  p.ghost_owner = std::move(g.ghost_owner);
+  p.rim = std::move(g.rim);
+  p.ghost_bytes = g.ghost_bytes;
+}
+
+// The local cells holding the rank's particles' centres (-1 in none).
+std::vector<std::int64_t> locate_centres(const vfe_mpi_engine& e, const vfe_particles& p) {
+  std::vector<double> x(static_cast<std::size_t>(3 * p.n));
+  for (std::int64_t i = 0; i < p.n; ++i) std::copy_n(at(p.centres, p.centres_stride, 3, i), 3, &x[static_cast<std::size_t>(3 * i)]);
+  std::vector<std::int64_t> cells(static_cast<std::size_t>(p.n));
+  e.local->locate(x, cells);
+  return cells;
+}
+
+std::string who(const vfe_particles& p, std::int64_t i) {
+  std::string w = "particle " + std::to_string(i);
+  if (p.ids) w += " (id " + std::to_string(*at(p.ids, p.ids_stride, 1, i)) + ")";
+  return w;
+}
+
+std::string wrong_rank(const vfe_particles& p, std::int64_t i, const std::string& cell, int owner, int rank) {
+  return who(p, i) + " has its centre in " + cell + ", owned by rank " + std::to_string(owner) + ", not by this rank " +
+         std::to_string(rank) + ": give each particle on the rank owning its centre's cell (vfe_mpi_owner, "
+         "vfe_mpi_route_particles)";
+}
+
+// A polyMesh rank's particles checked against the contract: a centre in a ghost cell
+// fails (naming the owner); centres in no cell held here go to `unlocated` for
+// place_outside_centres. Returns the largest radius.
+double check_poly_particles(const vfe_mpi_engine& e, const vfe_particles& p, std::vector<std::int64_t>& unlocated) {
+  double max_radius = 0;
+  for (std::int64_t i = 0; i < p.n; ++i) {
+    const double r = *at(p.radii, p.radii_stride, 1, i);
+    if (std::isfinite(r) && r > max_radius) max_radius = r;
+  }
+  const std::vector<std::int64_t> cells = locate_centres(e, p);
+  const std::int64_t owned = e.owned_cells();
+  for (std::int64_t i = 0; i < p.n; ++i) {
+    const double* x = at(p.centres, p.centres_stride, 3, i);
+    if (!(std::isfinite(x[0]) && std::isfinite(x[1]) && std::isfinite(x[2]))) continue;  // the engine names it
+    const std::int64_t c = cells[static_cast<std::size_t>(i)];
+    if (c < 0)
+      unlocated.push_back(i);
+    else if (c >= owned)
+      throw Error(VFE_ERROR_INVALID_ARGUMENT,
+                  wrong_rank(p, i, "global cell " + std::to_string(e.poly->cell_ids[static_cast<std::size_t>(c)]),
+                             e.poly->ghost_owner[static_cast<std::size_t>(c - owned)], e.rank));
+  }
+  return max_radius;
+}
+
+// Collective. The owners of centres no rank's local mesh placed (every rank passes its own
+// list, 3 values per centre; the lists are gathered everywhere): a centre inside a rank's
+// cells belongs to that rank, one outside the whole mesh to the rank of the cell whose
+// centre is nearest (the serial engine's rule for outside=nearest). Also returns, on every
+// rank, how far outside the mesh the farthest of all these centres lies (its distance to
+// that nearest cell centre; 0 when all are inside).
+std::vector<int> owners_of_unplaced(const vfe_mpi_engine& e, const std::vector<double>& x, double& beyond) {
+  const int count = static_cast<int>(x.size());
+  std::vector<int> counts(static_cast<std::size_t>(e.size)), displs(static_cast<std::size_t>(e.size), 0);
+  MPI_Allgather(&count, 1, MPI_INT, counts.data(), 1, MPI_INT, e.comm);
+  for (int q = 1; q < e.size; ++q) displs[q] = displs[q - 1] + counts[q - 1];
+  std::vector<double> all(static_cast<std::size_t>(displs.back() + counts.back()));
+  MPI_Allgatherv(x.data(), count, MPI_DOUBLE, all.data(), counts.data(), displs.data(), MPI_DOUBLE, e.comm);
+  const std::size_t n = all.size() / 3;
+  std::vector<std::int64_t> cells(n);
+  e.local->locate(all, cells);
+  std::vector<double> centres(static_cast<std::size_t>(3 * e.local->cell_count()));
+  e.local->cell_centres(centres);
+  centres.resize(static_cast<std::size_t>(3 * e.owned_cells()));
+  // (distance, rank): -1 when the centre lies in one of this rank's cells, else the distance
+  // to its nearest owned cell centre (brute force: these centres are few); the smallest over
+  // ranks names the owner.
+  struct Candidate {
+    double distance;
+    int rank;
+  };
+  std::vector<Candidate> mine(n), best(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    double d2 = std::numeric_limits<double>::infinity();
+    if (cells[k] >= 0 && cells[k] < e.owned_cells())
+      d2 = -1;
+    else
+      for (std::size_t c = 0; c < centres.size() / 3; ++c) {
+        double s = 0;
+        for (int d = 0; d < 3; ++d) s += (all[3 * k + d] - centres[3 * c + d]) * (all[3 * k + d] - centres[3 * c + d]);
+        d2 = std::min(d2, s);
+      }
+    mine[k] = {d2 < 0 ? -1.0 : std::sqrt(d2), e.rank};
+  }
+  MPI_Allreduce(mine.data(), best.data(), static_cast<int>(n), MPI_DOUBLE_INT, MPI_MINLOC, e.comm);
+  beyond = 0;
+  for (std::size_t k = 0; k < n; ++k) beyond = std::max(beyond, best[k].distance);
+  std::vector<int> owners;
+  const std::size_t first = static_cast<std::size_t>(displs[static_cast<std::size_t>(e.rank)]) / 3;
+  for (std::size_t j = 0; j < x.size() / 3; ++j) owners.push_back(best[first + j].rank);
+  return owners;
+}
+
+// Collective. The rank's particles whose centres lie in no cell held here (`mine`) must
+// belong to it by owners_of_unplaced's rule; returns its `beyond`.
+double place_outside_centres(const vfe_mpi_engine& e, const vfe_particles& p, const std::vector<std::int64_t>& mine) {
+  std::vector<double> x;
+  for (const std::int64_t i : mine) x.insert(x.end(), at(p.centres, p.centres_stride, 3, i), at(p.centres, p.centres_stride, 3, i) + 3);
+  double beyond = 0;
+  const std::vector<int> owners = owners_of_unplaced(e, x, beyond);
+  for (std::size_t j = 0; j < mine.size(); ++j)
+    if (owners[j] != e.rank)
+      throw Error(VFE_ERROR_INVALID_ARGUMENT, wrong_rank(p, mine[j], "a cell outside this rank's ghost layer, or in no cell "
+                                                                     "(then the owner is that of the nearest cell centre)",
+                                                         owners[j], e.rank));
+  return beyond;
+}
+
 // One compute: three small allreduces (contract and largest radius; the local computes'
 // outcome and grid sizes; the report) and one neighbour exchange, plus a rebuild of the
 // ghost layer when a footprint needs a wider one.
 vfe_status compute(vfe_mpi_engine* e, const vfe_particles* p, double* out) {
   if (!e) return VFE_ERROR_INVALID_ARGUMENT;
   std::vector<double> wrapped;
-  double max_radius = 0;
+  std::vector<std::int64_t> unlocated;  // a polyMesh's particles whose centres lie in no cell held here
+  double max_radius = 0, maxima[2] = {0, 0};
   vfe_status s = collective(
       *e,
       [&] {
@@ -331,15 +529,36 @@ vfe_status compute(vfe_mpi_engine* e, const vfe_particles* p, double* out) {
           throw Error(VFE_ERROR_INVALID_ARGUMENT,
                       "method=pmm with orientation=random rotates each particle by its id, which must not depend on "
                       "the rank: pass the particle ids (vfe_particles.ids, vfe_mpi_compute_particles)");
-        max_radius = check_particles(*e, *p, wrapped);
+        if (e->poly) {
+          max_radius = check_poly_particles(*e, *p, unlocated);
+          maxima[1] = double(unlocated.size());
+        } else {
+          max_radius = check_particles(*e, *p, wrapped);
+        }
+        maxima[0] = max_radius;
       },
-      {&max_radius, 1});
+      maxima);
   if (s != VFE_OK) return s;
+  max_radius = maxima[0];
+  if (e->poly) {
+    double beyond = 0;
+    if (maxima[1] > 0) {  // some centres lie in no cell this rank holds
+      s = collective(*e, [&] { beyond = place_outside_centres(*e, *p, unlocated); });
+      if (s != VFE_OK) return s;
+    }
+    double width = 0;
+    s = local_call(e, [&] { width = poly_width_needed(*e, max_radius, beyond); });
+    if (s != VFE_OK) return s;
+    if (width > e->poly->width) {
+      s = collective(*e, [&] { rebuild_poly(*e, width); });
+      if (s != VFE_OK) return s;
+    }
+  }
   // Every rank has the same largest radius and options, so all decide alike.
   Index3 need{};
-  s = local_call(e, [&] { need = ghost_needed(*e, max_radius); });
+  if (!e->poly) s = local_call(e, [&] { need = ghost_needed(*e, max_radius); });
   if (s != VFE_OK) return s;
-  if (need[0] > e->dec.ghost[0] || need[1] > e->dec.ghost[1] || need[2] > e->dec.ghost[2]) {
+  if (!e->poly && (need[0] > e->dec.ghost[0] || need[1] > e->dec.ghost[1] || need[2] > e->dec.ghost[2])) {
     s = collective(*e, [&] {
       rebuild(*e, {std::max(need[0], e->dec.ghost[0]), std::max(need[1], e->dec.ghost[1]),
                    std::max(need[2], e->dec.ghost[2])});
@@ -443,6 +662,52 @@ std::string take_periodic(const char* options, std::array<bool, 3>& periodic, bo
 
 }  // namespace
 
+namespace {
+
+// Creates a polyMesh engine from the rank's cells that load() gives (run on every rank;
+// its failure on one rank fails the call everywhere).
+template <class Load>
+vfe_status create_polymesh(MPI_Comm comm, vfe_mpi_engine** out, const char* caller, Load&& load) {
+  if (comm == MPI_COMM_NULL) {
+    g_create_error = std::string(caller) + ": comm is MPI_COMM_NULL";
+    return VFE_ERROR_INVALID_ARGUMENT;
+  }
+  auto e = std::make_unique<vfe_mpi_engine>();
+  MPI_Comm_dup(comm, &e->comm);
+  MPI_Comm_rank(e->comm, &e->rank);
+  MPI_Comm_size(e->comm, &e->size);
+  e->poly = std::make_unique<DistributedPolyMesh>();
+  double largest = 0;
+  vfe_status s = collective(
+      *e,
+      [&] {
+        require(out != nullptr, std::string(caller) + ": out is NULL");
+        DistributedPolyMesh& p = *e->poly;
+        load(p.mesh);
+        vfe::mpi::check_rank_mesh(p.mesh);
+        p.boxes = vfe::mpi::cell_boxes(p.mesh);
+        for (std::size_t c = 0; c < p.boxes.size() / 6; ++c)
+          for (int d = 0; d < 3; ++d) largest = std::max(largest, p.boxes[6 * c + 3 + d] - p.boxes[6 * c + d]);
+        const vfe::Engine owned(p.mesh.mesh.view());  // validates the rank's mesh and gives its volumes
+        p.volumes.resize(static_cast<std::size_t>(owned.cell_count()));
+        owned.cell_volumes(p.volumes);
+      },
+      {&largest, 1});
+  if (s == VFE_OK) {
+    e->poly->largest_cell = largest;
+    s = collective(*e, [&] { rebuild_poly(*e, 1.01 * largest); });
+  }
+  if (s == VFE_OK) {
+    *out = e.release();
+    return VFE_OK;
+  }
+  g_create_error = e->error;
+  MPI_Comm_free(&e->comm);
+  return s;
+}
+
+}  // namespace
+
 extern "C" {
 
 vfe_status vfe_mpi_create_cartesian(MPI_Comm comm, const double origin[3], const double spacing[3],
@@ -496,12 +761,79 @@ vfe_status vfe_mpi_create_cartesian(MPI_Comm comm, const double origin[3], const
   return s;
 }
 
-vfe_status vfe_mpi_create_polymesh(MPI_Comm, const char* processor_dir, vfe_mpi_engine** out) {
-  (void)processor_dir;
-  (void)out;
-  g_create_error =
-      "vfe_mpi_create_polymesh is not implemented yet: decompose a Cartesian grid with vfe_mpi_create_cartesian";
-  return VFE_ERROR_UNSUPPORTED;
+vfe_status vfe_mpi_create_polymesh(MPI_Comm comm, const char* processor_dir, vfe_mpi_engine** out) {
+  int size = 1;
+  if (comm != MPI_COMM_NULL) MPI_Comm_size(comm, &size);
+  return create_polymesh(comm, out, "vfe_mpi_create_polymesh", [&](vfe::mpi::RankPolyMesh& m) {
+    require(processor_dir != nullptr, "vfe_mpi_create_polymesh: processor_dir is NULL");
+    m.mesh = vfe::read_polymesh_buffers(processor_dir);
+    const std::int64_t points = static_cast<std::int64_t>(m.mesh.points.size() / 3);
+    const std::int64_t faces = static_cast<std::int64_t>(m.mesh.owner.size());
+    std::int64_t cells = 0;
+    for (const std::int64_t c : m.mesh.owner) cells = std::max(cells, c + 1);
+    const bool decomposed = [&] {
+      try {
+        m.cell_ids = vfe::read_polymesh_labels(processor_dir, "cellProcAddressing");
+        return true;
+      } catch (const Error& err) {
+        if (err.status() != VFE_ERROR_IO || size > 1) throw;
+        return false;
+      }
+    }();
+    if (decomposed) {
+      m.point_ids = vfe::read_polymesh_labels(processor_dir, "pointProcAddressing");
+      m.face_ids = vfe::read_polymesh_labels(processor_dir, "faceProcAddressing");
+    } else {  // one rank on an undecomposed mesh: its own numbering is the global one
+      for (std::int64_t i = 0; i < points; ++i) m.point_ids.push_back(i);
+      for (std::int64_t i = 0; i < faces; ++i) m.face_ids.push_back(i + 1);
+      for (std::int64_t i = 0; i < cells; ++i) m.cell_ids.push_back(i);
+    }
+    m.coupled.assign(static_cast<std::size_t>(faces), 0);
+    for (const vfe::PolyMeshBuffers::Patch& patch : m.mesh.patches)
+      if (patch.type == "processor")
+        std::fill_n(m.coupled.begin() + patch.start_face, patch.n_faces, 1);
+      else
+        require(patch.type.rfind("processorCyclic", 0) != 0 && patch.type.rfind("cyclic", 0) != 0,
+                "vfe_mpi_create_polymesh: patch '" + patch.name + "' of " + std::string(processor_dir) + " is " +
+                    patch.type + "; cyclic patches are not supported (their transforms are not applied)");
+  });
+}
+
+vfe_status vfe_mpi_create_polymesh_arrays(MPI_Comm comm, const vfe_mpi_polymesh* mesh, vfe_mpi_engine** out) {
+  return create_polymesh(comm, out, "vfe_mpi_create_polymesh_arrays", [&](vfe::mpi::RankPolyMesh& m) {
+    require(mesh != nullptr, "vfe_mpi_create_polymesh_arrays: mesh is NULL");
+    const vfe_mpi_polymesh& a = *mesh;
+    require(a.n_points >= 0 && a.n_faces >= 0 && a.n_internal_faces >= 0 && a.n_internal_faces <= a.n_faces &&
+                a.n_coupled_faces >= 0,
+            "vfe_mpi_create_polymesh_arrays: counts must satisfy n_points, n_faces, n_coupled_faces >= 0 and "
+            "0 <= n_internal_faces <= n_faces");
+    require((a.n_points == 0 || (a.points && a.point_ids)) &&
+                (a.n_faces == 0 || (a.face_offsets && a.face_points && a.owner && a.face_ids)) &&
+                (a.n_internal_faces == 0 || a.neighbour) && (a.n_coupled_faces == 0 || a.coupled_faces),
+            "vfe_mpi_create_polymesh_arrays: an array is NULL; pass arrays of the sizes vfe_mpi.h gives");
+    const auto copy = [](auto* first, std::int64_t n) { return std::vector(first, first + n); };
+    m.mesh.points = copy(a.points, 3 * a.n_points);
+    m.mesh.face_offsets = copy(a.face_offsets, a.n_faces + 1);
+    require(m.mesh.face_offsets.front() == 0 && std::is_sorted(m.mesh.face_offsets.begin(), m.mesh.face_offsets.end()),
+            "vfe_mpi_create_polymesh_arrays: face_offsets must start at 0 and not decrease");
+    m.mesh.face_points = copy(a.face_points, m.mesh.face_offsets.back());
+    m.mesh.owner = copy(a.owner, a.n_faces);
+    m.mesh.neighbour = copy(a.neighbour, a.n_internal_faces);
+    m.point_ids = copy(a.point_ids, a.n_points);
+    m.face_ids = copy(a.face_ids, a.n_faces);
+    std::int64_t cells = 0;
+    for (const std::int64_t c : m.mesh.owner) cells = std::max(cells, c + 1);
+    require(cells == 0 || a.cell_ids, "vfe_mpi_create_polymesh_arrays: cell_ids is NULL");
+    m.cell_ids = copy(a.cell_ids, cells);
+    m.coupled.assign(static_cast<std::size_t>(a.n_faces), 0);
+    for (std::int64_t i = 0; i < a.n_coupled_faces; ++i) {
+      const std::int64_t f = a.coupled_faces[i];
+      require(f >= a.n_internal_faces && f < a.n_faces,
+              "vfe_mpi_create_polymesh_arrays: coupled face " + std::to_string(f) +
+                  " is not a boundary face (n_internal_faces <= face < n_faces)");
+      m.coupled[static_cast<std::size_t>(f)] = 1;
+    }
+  });
 }
 
 void vfe_mpi_destroy(vfe_mpi_engine* e) {
@@ -519,7 +851,8 @@ vfe_status vfe_mpi_configure(vfe_mpi_engine* e, const char* options) {
   std::string rest;
   vfe_status s = collective(*e, [&] {
     require(options != nullptr, "vfe_mpi_configure: options is NULL");
-    rest = take_periodic(options, periodic, periodic_given);
+    // On a polyMesh periodic= goes to the local engine, which refuses it.
+    rest = e->poly ? std::string(options) : take_periodic(options, periodic, periodic_given);
     // Checked on a scratch engine first, so a refused option string changes nothing.
     vfe::Engine scratch(vfe::CartesianGridSpec{});
     scratch.configure(e->local->options());
@@ -547,7 +880,7 @@ int64_t vfe_mpi_cell_count(const vfe_mpi_engine* e) { return e ? e->owned_cells(
 vfe_status vfe_mpi_cell_volumes(const vfe_mpi_engine* e, double* out) {
   return local_call(e, [&] {
     require(out != nullptr, "vfe_mpi_cell_volumes: out is NULL");
-    std::fill_n(out, e->owned_cells(), e->cell_volume());
+    for (std::int64_t c = 0; c < e->owned_cells(); ++c) out[c] = e->cell_volume(static_cast<std::size_t>(c));
   });
 }
 
@@ -556,7 +889,9 @@ vfe_status vfe_mpi_owner(const vfe_mpi_engine* e, const double centre[3], int* r
     require(centre && rank, "vfe_mpi_owner: centre and rank must not be NULL");
     require(std::isfinite(centre[0]) && std::isfinite(centre[1]) && std::isfinite(centre[2]),
             "vfe_mpi_owner: the centre must be finite");
-    *rank = owner_of(*e, centre_cell(*e, centre));
+    *rank = owner_rank(*e, centre);
+    require(*rank >= 0, "vfe_mpi_owner: the centre lies in no cell this rank owns or holds as a ghost; on a polyMesh "
+                        "a rank knows its own cells and its ghost layer only (vfe_mpi_route_particles finds any owner)");
   });
 }
 
@@ -580,7 +915,7 @@ vfe_status vfe_mpi_void_fraction(const vfe_mpi_engine* e, double* out) {
     require(e->have_field, "vfe_mpi_void_fraction: no compute since creation or the last configure; compute first");
     const double alpha_min = std::stod(e->local->option("alpha_min"));
     for (std::size_t c = 0; c < e->solid.size(); ++c) {
-      const double eps = 1.0 - e->solid[c] / e->cell_volume();
+      const double eps = 1.0 - e->solid[c] / e->cell_volume(c);
       out[c] = alpha_min > 0 && eps < alpha_min ? alpha_min : eps;
     }
   });
@@ -638,6 +973,13 @@ vfe_status vfe_mpi_weights(const vfe_mpi_engine* e, int64_t* offsets, int64_t* c
     std::vector<std::int64_t> o(static_cast<std::size_t>(w.particles + 1)), c(static_cast<std::size_t>(w.entries));
     std::vector<double> f(static_cast<std::size_t>(w.entries));
     e->local->weights(o, c, f);
+    if (e->poly) {
+      for (std::int64_t& cell : c) cell = e->poly->cell_ids[static_cast<std::size_t>(cell)];
+      std::copy(o.begin(), o.end(), offsets);
+      std::copy(c.begin(), c.end(), cells);
+      std::copy(f.begin(), f.end(), fractions);
+      return;
+    }
     const Box ext = e->dec.extended(e->rank);
     const Index3 n = ext.extent(), g = e->dec.cells;
     for (std::int64_t& cell : c) {
@@ -674,8 +1016,9 @@ vfe_status vfe_mpi_last_report_value(const vfe_mpi_engine* e, const char* key, d
         {"dropped_volume", r.dropped_volume},
         {"outside_particles", double(r.outside_particles)},
         {"clipped_volume", r.clipped_volume},
-        {"ghost_width", double(*std::max_element(e->dec.ghost.begin(), e->dec.ghost.end()))},
-        {"neighbours", double(e->halo.neighbours().size())},
+        {"ghost_width", e->poly ? e->poly->width : double(*std::max_element(e->dec.ghost.begin(), e->dec.ghost.end()))},
+        {"ghost_bytes", e->poly ? double(e->poly->ghost_bytes) : 0.0},
+        {"neighbours", double(e->halo.peers().size())},
         {"local_cells", double(e->extended.size())},
         {"halo_values", double(halo_values)},
         {"halo_bytes", double(halo_values) * double(sizeof(double))},
@@ -716,13 +1059,22 @@ vfe_status vfe_mpi_route_particles(const vfe_mpi_engine* e, int64_t n, const dou
     require(n_out && centres_out && radii_out && ids_out, "vfe_mpi_route_particles: outputs must not be NULL");
     std::vector<int> dest(static_cast<std::size_t>(n));
     std::vector<int> counts(static_cast<std::size_t>(e->size), 0);
+    std::vector<double> unplaced;  // a polyMesh's centres in no cell held here
     for (std::int64_t i = 0; i < n; ++i) {
       const double* x = centres + 3 * i;
       require(std::isfinite(x[0]) && std::isfinite(x[1]) && std::isfinite(x[2]),
               "vfe_mpi_route_particles: particle " + std::to_string(i) + " has a non-finite centre");
-      dest[static_cast<std::size_t>(i)] = owner_of(*e, centre_cell(*e, x));
-      ++counts[static_cast<std::size_t>(dest[static_cast<std::size_t>(i)])];
+      dest[static_cast<std::size_t>(i)] = owner_rank(*e, x);
+      if (dest[static_cast<std::size_t>(i)] < 0) unplaced.insert(unplaced.end(), x, x + 3);
     }
+    if (e->poly) {
+      double beyond = 0;
+      const std::vector<int> owners = owners_of_unplaced(*e, unplaced, beyond);
+      std::size_t next = 0;
+      for (int& d : dest)
+        if (d < 0) d = owners[next++];
+    }
+    for (const int d : dest) ++counts[static_cast<std::size_t>(d)];
     // Packed records of 5 doubles (centre, radius, id's bits), grouped by destination.
     std::vector<int> displs(static_cast<std::size_t>(e->size), 0);
     for (int q = 1; q < e->size; ++q) displs[q] = displs[q - 1] + counts[q - 1];

@@ -219,3 +219,48 @@ TEST(PolyMeshEngine, SortedHashBoxQueryFindsEveryOverlappingCellOnce) {
     }
   }
 }
+
+TEST(PolyMeshEngine, FacadeReadsBuffersAndLabelListsAndLocatesPoints) {
+  const std::string box = kData + "openfoam/box_uniform_10x10x30";
+  const vfe::PolyMeshBuffers b = vfe::read_polymesh_buffers(box);
+  vfe::Engine from_folder(vfe::PolyMeshSpec{box}), from_buffers(b.view());
+  ASSERT_EQ(from_buffers.cell_count(), 3000);
+  std::vector<double> v1(3000), v2(3000);
+  from_folder.cell_volumes(v1);
+  from_buffers.cell_volumes(v2);
+  EXPECT_EQ(v1, v2);
+  std::int64_t patch_faces = 0;
+  for (const auto& p : b.patches) patch_faces += p.n_faces;
+  EXPECT_EQ(patch_faces, static_cast<std::int64_t>(b.owner.size() - b.neighbour.size()));
+  // blockMesh numbers the single block's cells i + 10 (j + 10 k) on 2 mm cells from 0.
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u(-0.1, 1.1);
+  std::vector<double> points;
+  std::vector<std::int64_t> expected;
+  for (int i = 0; i < 500; ++i) {
+    const double x[3] = {0.02 * u(rng), 0.02 * u(rng), 0.06 * u(rng)};
+    points.insert(points.end(), x, x + 3);
+    const bool inside = x[0] >= 0 && x[0] < 0.02 && x[1] >= 0 && x[1] < 0.02 && x[2] >= 0 && x[2] < 0.06;
+    const auto index = [&](int d) { return static_cast<std::int64_t>(std::floor(x[d] / 0.002)); };
+    expected.push_back(inside ? index(0) + 10 * (index(1) + 10 * index(2)) : -1);
+  }
+  std::vector<std::int64_t> found(expected.size());
+  from_folder.locate(points, found);
+  EXPECT_EQ(found, expected);
+  EXPECT_THROW(from_folder.locate(points, std::span<std::int64_t>(found).first(3)), vfe::Error);
+  // decomposePar's addressing, gzipped: cells in increasing global order, reversed faces negative.
+  const std::string proc = kData + "openfoam/decomposed/cylinder_ogrid_coarse_3/processor1";
+  const std::vector<std::int64_t> cells = vfe::read_polymesh_labels(proc, "cellProcAddressing");
+  const std::vector<std::int64_t> faces = vfe::read_polymesh_labels(proc, "faceProcAddressing");
+  EXPECT_EQ(cells.size(), 640u);
+  EXPECT_TRUE(std::is_sorted(cells.begin(), cells.end()));
+  EXPECT_EQ(faces.size(), vfe::read_polymesh_buffers(proc).owner.size());
+  EXPECT_TRUE(std::any_of(faces.begin(), faces.end(), [](std::int64_t f) { return f < 0; }));
+  try {
+    vfe::read_polymesh_labels(box, "cellProcAddressing");
+    ADD_FAILURE() << "an undecomposed case has no cellProcAddressing";
+  } catch (const vfe::Error& e) {
+    EXPECT_EQ(e.status(), VFE_ERROR_IO);
+    EXPECT_NE(std::string(e.what()).find("cellProcAddressing"), std::string::npos) << e.what();
+  }
+}

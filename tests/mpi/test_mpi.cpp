@@ -6,6 +6,8 @@
 
 #include <gtest/gtest.h>
 
+#include "mpi_test.hpp"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -23,17 +25,6 @@ struct Grid {
   std::array<double, 3> origin{-0.002, 0.001, 0.0};
   std::array<double, 3> spacing{0.001, 0.0011, 0.0009};  // anisotropic: ghost widths differ per axis
   std::array<int64_t, 3> cells{13, 10, 9};               // 13 and 9 do not split evenly
-};
-
-struct Scene {
-  std::string name;
-  std::vector<double> centres, radii;
-  std::vector<int64_t> ids;
-  std::size_t size() const { return radii.size(); }
-  double largest_volume() const {
-    const double r = *std::max_element(radii.begin(), radii.end());
-    return 4.0 / 3.0 * M_PI * r * r * r;
-  }
 };
 
 // n spheres of radius r_lo..r_hi with centres uniform in the box [lo, hi) (fractions of the
@@ -109,15 +100,6 @@ Local owned_particles(const Scene& s, const Grid& g, const int64_t lo[3], const 
   return l;
 }
 
-vfe_particles view(const double* centres, const double* radii, const int64_t* ids, int64_t n) {
-  vfe_particles p{};
-  p.n = n;
-  p.centres = centres;
-  p.radii = radii;
-  p.ids = ids;
-  return p;
-}
-
 // The serial engine's field on the whole grid, computed on rank 0 and sent to every rank.
 std::vector<double> serial_field(const Grid& g, const Scene& s, const std::string& options) {
   std::vector<double> field(size_t(g.cells[0] * g.cells[1] * g.cells[2]));
@@ -136,11 +118,6 @@ std::vector<double> serial_field(const Grid& g, const Scene& s, const std::strin
   return field;
 }
 
-double max_over_ranks(double v) {
-  double m = 0;
-  MPI_Allreduce(&v, &m, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
-  return m;
-}
 
 struct Comparison {
   double max_diff = 0;       // largest |distributed - serial| over owned cells of all ranks
@@ -338,7 +315,6 @@ TEST(DistributedCartesian, BlocksThatDoNotTileTheGridAreRefused) {
   EXPECT_EQ(vfe_mpi_create_cartesian(MPI_COMM_WORLD, g.origin.data(), bad_spacing, g.cells.data(), lo, hi, &e),
             VFE_ERROR_INVALID_ARGUMENT);
   EXPECT_EQ(e, nullptr);
-  EXPECT_EQ(vfe_mpi_create_polymesh(MPI_COMM_WORLD, "processor0", &e), VFE_ERROR_UNSUPPORTED);
 }
 
 TEST(DistributedCartesian, BadOptionChangesNothing) {
@@ -481,18 +457,4 @@ TEST(DistributedCartesian, RoutedParticlesEqualSerial) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
-  MPI_Init(&argc, &argv);
-  MPI_Comm_rank(MPI_COMM_WORLD, &g_rank);
-  MPI_Comm_size(MPI_COMM_WORLD, &g_size);
-  ::testing::InitGoogleTest(&argc, argv);
-  if (g_rank != 0) {  // one rank prints; the checks are reduced over ranks, so all agree
-    auto& listeners = ::testing::UnitTest::GetInstance()->listeners();
-    delete listeners.Release(listeners.default_result_printer());
-  }
-  const int failed = RUN_ALL_TESTS();
-  int any = 0;
-  MPI_Allreduce(&failed, &any, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
-  MPI_Finalize();
-  return any;
-}
+int main(int argc, char** argv) { return mpi_gtest_main(argc, argv, g_rank, g_size); }

@@ -52,6 +52,33 @@ struct PolyMeshArrays {
   const std::int64_t* neighbour = nullptr;    ///< n_internal_faces
 };
 
+/// An OpenFOAM polyMesh's arrays as its files hold them (read_polymesh_buffers); view()
+/// gives the PolyMeshArrays of the same mesh (which takes no patches: boundary faces are the
+/// faces after the internal ones).
+struct PolyMeshBuffers {
+  std::vector<double> points;  ///< 3 per point
+  std::vector<std::int64_t> face_offsets{0}, face_points, owner, neighbour;
+  /// The boundary file's patches (type "processor" for decomposePar's processor patches).
+  struct Patch {
+    std::string name, type;
+    std::int64_t start_face = 0, n_faces = 0;
+  };
+  std::vector<Patch> patches;
+  PolyMeshArrays view() const {
+    return {static_cast<std::int64_t>(points.size() / 3), points.data(),
+            static_cast<std::int64_t>(owner.size()),      face_offsets.data(),
+            face_points.data(),                            owner.data(),
+            static_cast<std::int64_t>(neighbour.size()),  neighbour.data()};
+  }
+};
+/// Reads the polyMesh of a case, constant or polyMesh folder (as PolyMeshSpec) into memory;
+/// throws Error as Engine(PolyMeshSpec) does.
+VFE_API PolyMeshBuffers read_polymesh_buffers(const std::string& dir);
+/// A labelList file of that polyMesh folder (plain or name.gz, ASCII or binary), e.g. the
+/// pointProcAddressing, faceProcAddressing and cellProcAddressing decomposePar writes into
+/// each processorN folder. Throws Error (VFE_ERROR_IO when missing, naming the file).
+VFE_API std::vector<std::int64_t> read_polymesh_labels(const std::string& dir, const std::string& name);
+
 /// Every method's name ("direct", "pmm", ...), in a fixed order.
 VFE_API std::span<const std::string_view> method_names();
 
@@ -113,6 +140,9 @@ class VFE_API Engine {
   PolyTopology poly_topology() const;
   /// Cell volumes in cell order.
   void cell_volumes(std::span<double> out) const;
+  /// The cell holding each point (3 values per point) into cells, -1 for a point in no cell;
+  /// the same cell a compute deposits a sub-element at that point into.
+  void locate(std::span<const double> points, std::span<std::int64_t> cells) const;
 
   /// Solid volume per cell of the given spheres into out (overwritten). Throws Error;
   /// out is untouched on failure.

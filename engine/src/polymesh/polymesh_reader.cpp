@@ -716,16 +716,28 @@ std::int64_t noted_cell_count(const std::string& note) {
 
 }  // namespace
 
-PolyMeshData read_polymesh(const std::filesystem::path& dir) {
+std::filesystem::path polymesh_folder(const std::filesystem::path& dir) {
   std::error_code ec;
   if (!fs::is_directory(dir, ec))
     io_error("polyMesh folder " + dir.string() +
              " does not exist or is not a folder; give an OpenFOAM case folder (with constant/polyMesh) or its "
              "constant/polyMesh folder");
-  fs::path mesh_dir = dir;
-  if (fs::is_directory(dir / "constant" / "polyMesh", ec)) mesh_dir = dir / "constant" / "polyMesh";
-  else if (!fs::exists(dir / "faces", ec) && !fs::exists(dir / "faces.gz", ec) && fs::is_directory(dir / "polyMesh", ec))
-    mesh_dir = dir / "polyMesh";  // the constant folder was given
+  if (fs::is_directory(dir / "constant" / "polyMesh", ec)) return dir / "constant" / "polyMesh";
+  if (!fs::exists(dir / "faces", ec) && !fs::exists(dir / "faces.gz", ec) && fs::is_directory(dir / "polyMesh", ec))
+    return dir / "polyMesh";  // the constant folder was given
+  return dir;
+}
+
+std::vector<std::int64_t> read_label_list_file(const std::filesystem::path& dir, const std::string& name) {
+  FoamText t(load(polymesh_folder(dir), name));
+  std::vector<std::int64_t> labels;
+  read_label_list(t, labels, "the label list " + name, kMaxCount, [](std::int64_t, std::int64_t, std::size_t) {});
+  t.expect_end("the label list " + name);
+  return labels;
+}
+
+PolyMeshData read_polymesh(const std::filesystem::path& dir) {
+  const fs::path mesh_dir = polymesh_folder(dir);
 
   PolyMeshData mesh;
   mesh.source = mesh_dir.string();

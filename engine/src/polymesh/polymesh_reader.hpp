@@ -58,4 +58,13 @@ struct PolyMeshData {
 /// most 65536 points. Past a limit: VFE_ERROR_INVALID_ARGUMENT naming file, entry, limit.
 PolyMeshData read_polymesh(const std::filesystem::path& dir);
 
+/// The polyMesh folder that `dir` names: a case folder's constant/polyMesh, a constant
+/// folder's polyMesh, or `dir` itself. Throws Error (VFE_ERROR_IO) when dir is no folder.
+std::filesystem::path polymesh_folder(const std::filesystem::path& dir);
+
+/// A labelList file of the polyMesh folder `dir` names (as polymesh_folder), plain or
+/// name.gz, ASCII or binary: e.g. decomposePar's cellProcAddressing. Labels may be
+/// negative (faceProcAddressing's sign marks a flipped face). Throws Error as read_polymesh.
+std::vector<std::int64_t> read_label_list_file(const std::filesystem::path& dir, const std::string& name);
+
 }  // namespace vfe

@@ -1,7 +1,8 @@
-/* vfe_mpi: the vfe engine on a Cartesian grid decomposed over MPI ranks. C99 API.
+/* vfe_mpi: the vfe engine on a Cartesian grid or an OpenFOAM polyMesh decomposed over MPI
+ * ranks. C99 API.
  *
- * Each rank owns a block of cells of one global grid and is given the particles whose
- * centres lie in its block. The rank keeps an ordinary vfe engine on its block plus a
+ * Each rank owns a block of cells of one global grid (or its processor mesh of a
+ * decomposed polyMesh) and is given the particles whose centres lie in its cells. The rank keeps an ordinary vfe engine on its block plus a
  * ghost layer as wide as the largest particle footprint needs; after the local compute the
  * ghost cells' deposits are summed into their owners (a reverse halo sum among the actual
  * neighbours only). Owned-cell fields then equal the serial engine's on the undecomposed
@@ -22,8 +23,14 @@
  * VFE_ERROR_INVALID_ARGUMENT naming it. orientation=random rotates by the particle ids
  * (vfe_particles.ids), so method=pmm with orientation=random requires ids.
  *
- * Spheres only (no shapes); Cartesian grids only (vfe_mpi_create_polymesh answers
- * VFE_ERROR_UNSUPPORTED). Not thread-safe per handle, like vfe_engine.
+ * On a polyMesh the owner of a centre is the rank owning the cell that holds it; a centre in
+ * no cell of the whole mesh belongs to the rank owning the cell whose centre is nearest.
+ * The ghost layer there is the other ranks' cells whose bounding box meets one of the
+ * rank's cells' bounding boxes widened by the footprint's reach plus one cell (more under
+ * outside=nearest, docs/scaling.md); only ranks whose bounding boxes come that close
+ * exchange cells.
+ *
+ * Spheres only (no shapes). Not thread-safe per handle, like vfe_engine.
  */
 #ifndef VFE_VFE_MPI_H
 #define VFE_VFE_MPI_H
@@ -47,13 +54,52 @@ VFE_API vfe_status vfe_mpi_create_cartesian(MPI_Comm comm, const double origin[3
                                             const int64_t global_cells[3], const int64_t block_lo[3],
                                             const int64_t block_hi[3], vfe_mpi_engine** out);
 
-/** Collective. Not implemented yet: answers VFE_ERROR_UNSUPPORTED. */
+/** Collective. Each rank passes its processorN folder as decomposePar writes it (the case
+ *  folder processorN, its constant or its polyMesh folder): points, faces, owner,
+ *  neighbour, boundary and the pointProcAddressing, faceProcAddressing and
+ *  cellProcAddressing that map its points, faces and cells to the undecomposed mesh's
+ *  (plain or .gz, ASCII or binary). Local cells keep the processor mesh's order. On a
+ *  communicator of one rank an undecomposed case folder is taken as it is. Every rank must
+ *  hold at least one cell; cyclic patches are refused (VFE_ERROR_UNSUPPORTED). The
+ *  communicator is duplicated. On failure *out is untouched and vfe_mpi_last_error(NULL)
+ *  says why (on every rank). */
 VFE_API vfe_status vfe_mpi_create_polymesh(MPI_Comm comm, const char* processor_dir, vfe_mpi_engine** out);
+
+/** A rank's part of a decomposed polyMesh in the host's memory: its processor mesh ordered
+ *  as vfe_create_polymesh_arrays takes it (internal faces first, normal from owner to
+ *  neighbour; cells = 1 + max(owner)), and global ids that number the undecomposed mesh's
+ *  points, faces and cells alike on every rank: exactly decomposePar's pointProcAddressing,
+ *  faceProcAddressing (global face + 1, negated when the rank's face is the global face
+ *  reversed, i.e. on a processor patch where this rank's cell is the global neighbour) and
+ *  cellProcAddressing. coupled_faces lists the faces on processor patches (shared with
+ *  another rank), e.g. every face of an OpenFOAM host's processorPolyPatches. An OpenFOAM
+ *  host running with -parallel reads the three addressing files from its processor folder
+ *  (they are what decomposePar wrote; the global face and point ids must be the ones every
+ *  rank agrees on). The arrays are copied. */
+typedef struct vfe_mpi_polymesh {
+  int64_t n_points;
+  const double* points;          /* 3 n_points */
+  const int64_t* point_ids;      /* n_points: global point */
+  int64_t n_faces;
+  const int64_t* face_offsets;   /* n_faces + 1, from 0 */
+  const int64_t* face_points;    /* face_offsets[n_faces] */
+  const int64_t* owner;          /* n_faces */
+  int64_t n_internal_faces;
+  const int64_t* neighbour;      /* n_internal_faces */
+  const int64_t* face_ids;       /* n_faces: +-(global face + 1) */
+  const int64_t* cell_ids;       /* cells: global cell */
+  int64_t n_coupled_faces;
+  const int64_t* coupled_faces;  /* n_coupled_faces face indices in [n_internal_faces, n_faces) */
+} vfe_mpi_polymesh;
+
+/** Collective. As vfe_mpi_create_polymesh, from the host's memory. */
+VFE_API vfe_status vfe_mpi_create_polymesh_arrays(MPI_Comm comm, const vfe_mpi_polymesh* mesh, vfe_mpi_engine** out);
 
 /** Collective. Frees the handle; NULL is a no-op (on every rank, or on none). */
 VFE_API void vfe_mpi_destroy(vfe_mpi_engine* e);
 
-/** Collective. vfe_configure's keys and values; periodic= applies to the global grid.
+/** Collective. vfe_configure's keys and values; periodic= applies to the global grid (a
+ *  polyMesh refuses it, as the serial engine does).
  *  smoothing_length > 0 (a diffusion over the whole mesh) answers VFE_ERROR_UNSUPPORTED. */
 VFE_API vfe_status vfe_mpi_configure(vfe_mpi_engine* e, const char* options);
 
@@ -62,7 +108,9 @@ VFE_API int64_t vfe_mpi_cell_count(const vfe_mpi_engine* e);
 /** Volume of every owned cell. */
 VFE_API vfe_status vfe_mpi_cell_volumes(const vfe_mpi_engine* e, double* out);
 
-/** Rank that owns the cell holding a particle centred at centre (the particle contract). */
+/** Rank that owns the cell holding a particle centred at centre (the particle contract). On a
+ *  polyMesh only centres in the rank's own or ghost cells are known (else
+ *  VFE_ERROR_INVALID_ARGUMENT). */
 VFE_API vfe_status vfe_mpi_owner(const vfe_mpi_engine* e, const double centre[3], int* rank);
 
 /** Collective. Solid volume of this rank's particles' deposits summed over all ranks, per
@@ -86,14 +134,17 @@ VFE_API vfe_status vfe_mpi_deposit(vfe_mpi_engine* e, int32_t components, const 
 VFE_API vfe_status vfe_mpi_interpolate(vfe_mpi_engine* e, int32_t components, const double* cell_field,
                                        double* out);
 /** With weights=1: per particle of this rank's last compute its cells as global cell
- *  indices i + nx*(j + ny*k) (periodic images wrapped) and fractions (CSR). */
+ *  indices i + nx*(j + ny*k) (periodic images wrapped; on a polyMesh the undecomposed
+ *  mesh's cell, cellProcAddressing) and fractions (CSR). */
 VFE_API vfe_status vfe_mpi_weights_size(const vfe_mpi_engine* e, int64_t* n_particles, int64_t* n_entries);
 VFE_API vfe_status vfe_mpi_weights(const vfe_mpi_engine* e, int64_t* offsets, int64_t* cells, double* fractions);
 
 /** Report of the last compute over all ranks (sums; particle_grid_min/max over ranks). */
 VFE_API vfe_status vfe_mpi_last_report(const vfe_mpi_engine* e, vfe_report* out);
 /** A fact by name: the vfe_report fields (over all ranks) and, for this rank, "ghost_width"
- *  (cells, largest over axes), "neighbours" (ranks exchanged with, itself included when it
+ *  (cells, largest over axes; on a polyMesh the width as a length), "ghost_bytes" (polyMesh:
+ *  bytes of ghost geometry received at the last rebuild of the layer), "neighbours" (ranks
+ *  exchanged with, itself included when it
  *  is its own periodic neighbour), "local_cells" (owned + ghost), "halo_values" (doubles
  *  this rank sends in one reverse halo sum), "halo_bytes" (bytes sent in it), and of the last
  *  compute on this rank "local_seconds" (wall time of the local engine's compute),
@@ -105,7 +156,9 @@ VFE_API vfe_status vfe_mpi_last_report_value(const vfe_mpi_engine* e, const char
 VFE_API const char* vfe_mpi_last_error(const vfe_mpi_engine* e);
 VFE_API vfe_status vfe_mpi_set_log_callback(vfe_mpi_engine* e, vfe_log_fn fn, void* user);
 
-/** Collective. Sends every particle to the rank that owns it (vfe_mpi_owner). In: n packed
+/** Collective. Sends every particle to the rank that owns it (vfe_mpi_owner; on a polyMesh
+ *  a centre beyond the rank's cells and ghosts is looked up on every rank, the centres
+ *  gathered everywhere: meant for the first hand-over, not every step). In: n packed
  *  particles (centres 3n, radii n, ids n). Out: *n_out particles in arrays allocated with
  *  malloc (the caller frees them), in the order of their source rank, then input order.
  *  On failure nothing is allocated. */
