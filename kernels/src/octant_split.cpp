@@ -60,14 +60,14 @@ std::uint64_t valid_bits(const ParticleTemplate& t, std::size_t w) {
   }
 }
 
-void masks_portable(const ParticleTemplate& t, const float rows[3][3], const int axes[3], int naxes,
+void masks_portable(const ParticleTemplate& t, const float* rows, const int axes[3], int naxes,
                     const float tau[3], float guard, SplitMasks& m) {
   const std::size_t words = t.split_words, stride = words * 64;
   const float* x = t.split_points.data();
   const float* y = x + stride;
   const float* z = y + stride;
   for (int a = 0; a < naxes; ++a) {
-    const float* r = rows[axes[a]];
+    const float* r = rows + 3 * axes[a];
     for (std::size_t w = 0; w < words; ++w) {
       std::uint64_t above = 0, near = 0;
       for (int b = 0; b < 64; ++b) {
@@ -85,7 +85,7 @@ void masks_portable(const ParticleTemplate& t, const float rows[3][3], const int
 #ifdef VFE_OCTANT_AVX2
 /// The masks of kAxes split axes (a compile-time count, so the rows stay in registers).
 template <int kAxes>
-__attribute__((target("avx2,fma,popcnt"))) bool count_avx2_axes(const ParticleTemplate& t, const float rows[3][3],
+__attribute__((target("avx2,fma,popcnt"))) bool count_avx2_axes(const ParticleTemplate& t, const float* rows,
                                                                const int axes[3], const float tau[3], unsigned split,
                                                                std::int32_t counts[8]) {
   SplitMasks m;
@@ -97,7 +97,7 @@ __attribute__((target("avx2,fma,popcnt"))) bool count_avx2_axes(const ParticleTe
   const std::size_t n = t.size();
   __m256 r0[kAxes], r1[kAxes], r2[kAxes], th[kAxes];
   for (int a = 0; a < kAxes; ++a) {
-    const float* r = rows[axes[a]];
+    const float* r = rows + 3 * axes[a];
     r0[a] = _mm256_set1_ps(r[0]), r1[a] = _mm256_set1_ps(r[1]), r2[a] = _mm256_set1_ps(r[2]);
     th[a] = _mm256_set1_ps(tau[a]);
   }
@@ -125,7 +125,7 @@ __attribute__((target("avx2,fma,popcnt"))) bool count_avx2_axes(const ParticleTe
   return true;
 }
 
-bool count_avx2(const ParticleTemplate& t, const float rows[3][3], const int axes[3], int naxes, const float tau[3],
+bool count_avx2(const ParticleTemplate& t, const float* rows, const int axes[3], int naxes, const float tau[3],
                 unsigned split, std::int32_t counts[8]) {
   switch (naxes) {
     case 1: return count_avx2_axes<1>(t, rows, axes, tau, split, counts);
@@ -144,9 +144,14 @@ bool has_avx2() {
 
 bool count_octants(const ParticleTemplate& t, const Eigen::Matrix3d& R, unsigned split, const double tau[3],
                    std::int32_t counts[8], SplitPath path) {
-  float rows[3][3];
+  float rows[9];
   for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) rows[i][j] = static_cast<float>(R(i, j));
+    for (int j = 0; j < 3; ++j) rows[3 * i + j] = static_cast<float>(R(i, j));
+  return count_octants(t, rows, split, tau, counts, path);
+}
+
+bool count_octants(const ParticleTemplate& t, const float* rows, unsigned split, const double tau[3],
+                   std::int32_t counts[8], SplitPath path) {
   int axes[3], naxes = 0;
   float taus[3];
   for (int d = 0; d < 3; ++d)

@@ -175,18 +175,43 @@ ParticleTemplate make_voxel_template(int n) {
   return t;
 }
 
-const Eigen::Matrix3d& banked_random_rotation(std::uint64_t index, std::uint64_t seed) {
-  constexpr std::size_t kBank = 4096;
+namespace {
+
+constexpr std::size_t kBank = 4096;
+
+const std::vector<Eigen::Matrix3d>& rotation_bank() {
   static const std::vector<Eigen::Matrix3d> bank = [] {
     std::vector<Eigen::Matrix3d> b(kBank);
     for (std::size_t i = 0; i < kBank; ++i) b[i] = random_rotation(i, 0x243F6A8885A308D3ull);
     return b;
   }();
+  return bank;
+}
+
+/// The bank slot of (index, seed): a hash, so neighbouring indices get unrelated rotations.
+std::size_t bank_slot(std::uint64_t index, std::uint64_t seed) {
   std::uint64_t z = index * 0x9E3779B97F4A7C15ull + seed * 0xD1B54A32D192ED03ull + 0x632BE59BD9B4E019ull;
   z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
   z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
   z ^= z >> 31;
-  return bank[z & (kBank - 1)];
+  return static_cast<std::size_t>(z & (kBank - 1));
+}
+
+}  // namespace
+
+const Eigen::Matrix3d& banked_random_rotation(std::uint64_t index, std::uint64_t seed) {
+  return rotation_bank()[bank_slot(index, seed)];
+}
+
+const float* banked_random_rotation_rows(std::uint64_t index, std::uint64_t seed) {
+  static const std::vector<float> rows = [] {
+    std::vector<float> r(9 * kBank);
+    for (std::size_t i = 0; i < kBank; ++i)
+      for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b) r[9 * i + 3 * a + b] = static_cast<float>(rotation_bank()[i](a, b));
+    return r;
+  }();
+  return rows.data() + 9 * bank_slot(index, seed);
 }
 
 // Built for AVX2 + FMA as well as the baseline; the loader picks the one the CPU runs.

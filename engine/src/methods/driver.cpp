@@ -100,7 +100,10 @@ void deposit_points(const Context& ctx, Scratch& s, const Particle& p, const ker
     outside(ctx, s, p, p.volume, grid.nearest(c), flagged, policy);
     return;
   }
-  if (deposit_by_octants(ctx, s, p, t, R, w, base, [&](std::int64_t cell, double v) { s.deposits.push_back({cell, v}); }))
+  float rows[9];
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) rows[3 * i + j] = static_cast<float>(R(i, j));
+  if (deposit_by_octants(ctx, s, p, t, rows, w, base, [&](std::int64_t cell, double v) { s.deposits.push_back({cell, v}); }))
     return;
   const Eigen::Matrix3d to_cells = inv_h.asDiagonal() * R * r;
   if (w.size() > (std::size_t(1) << 26))

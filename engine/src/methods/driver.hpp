@@ -245,15 +245,20 @@ void deposit_points(const Context& ctx, Scratch& s, const Particle& p, const ker
 /// The rotation of particle p's template under the orientation option.
 Eigen::Matrix3d particle_rotation(const Options& opts, const Particle& p);
 
+/// The same rotation rounded to floats, row by row (9 values): the rotation bank's own float
+/// copy when orientation=random draws from it, else particle_rotation converted into buffer.
+const float* particle_rotation_rows(const Options& opts, const Particle& p, float buffer[9]);
+
 /// deposit_points' counting path (kernels/octant_split.hpp) for a window of at most two
 /// cells per axis, all of them mesh cells: the cells of the straightforward locate (floor of
-/// base + (r / h) R q per axis, base the centre in cell units from the window's corner) with
+/// base + (r / h) R q per axis, base the centre in cell units from the window's corner; R
+/// given as floats row by row, particle_rotation_rows) with
 /// one comparison per point and split axis; sink(cell, volume) per cell reached. False,
 /// with nothing added, when it does not apply or float cannot decide a point: the caller
 /// then locates every point.
 template <class Sink>
 bool deposit_by_octants(const Context& ctx, Scratch& s, const Particle& p, const kernels::ParticleTemplate& t,
-                        const Eigen::Matrix3d& R, const Window& w, const Eigen::Vector3d& base, Sink&& sink) {
+                        const float* rotation_rows, const Window& w, const Eigen::Vector3d& base, Sink&& sink) {
   if (t.split_points.empty() || !ctx.opts.fast_path) return false;
   const CartesianGrid& grid = ctx.grid;
   unsigned split = 0;
@@ -273,7 +278,7 @@ bool deposit_by_octants(const Context& ctx, Scratch& s, const Particle& p, const
     }
   }
   std::int32_t counts[8];
-  if (!kernels::count_octants(t, R, split, tau, counts)) return false;
+  if (!kernels::count_octants(t, rotation_rows, split, tau, counts)) return false;
   ++s.counted;
   const double share = p.volume * t.fractions[0];
   for (int o = 0; o < 8; ++o)
@@ -281,28 +286,37 @@ bool deposit_by_octants(const Context& ctx, Scratch& s, const Particle& p, const
   return true;
 }
 
-/// pmm's two quick cases for a sphere whose window of cells lies in the mesh: the whole
-/// template in one cell (the fast path) or in at most 2 x 2 x 2 cells, counted per octant.
-/// Adds through sink(cell, volume) and counts as deposit_points does; false, with nothing
-/// added or counted, when neither applies (pmm_particle then does the general work).
+/// pmm's two quick cases for a sphere whose window of cells lies in the mesh, on a grid
+/// without periodic axes: the whole template in one cell (the fast path) or in at most
+/// 2 x 2 x 2 cells, counted per octant. Adds through sink(cell, volume) and counts as
+/// deposit_points does; false, with nothing added or counted, when neither applies
+/// (pmm_particle then does the general work).
 template <class Sink>
 bool pmm_sphere_quick(const Context& ctx, Scratch& s, const Particle& p, Sink&& sink) {
-  if (!ctx.opts.fast_path) return false;
   const CartesianGrid& grid = ctx.grid;
+  if (!ctx.opts.fast_path || grid.periodic_mask()) return false;
   const kernels::ParticleTemplate& t = ctx.template_for(p);
-  const Window w = make_window(grid, p.centre, Eigen::Vector3d::Constant(p.radius * t.reach));
+  // make_window's cells, for a window inside the grid: there the floor of each bound's
+  // coordinate (the same expression as axis_index's) is its truncation and no clamp acts.
+  const double half = p.radius * t.reach;
+  Window w;
+  for (int d = 0; d < 3; ++d) {
+    const double lo = grid.axis_coordinate(d, p.centre[d] - half), hi = grid.axis_coordinate(d, p.centre[d] + half);
+    if (!(lo >= 0 && hi < double(grid.cells()[d]))) return false;  // reaches beyond the grid (or NaN)
+    w.lo[d] = static_cast<std::int64_t>(lo);
+    w.m[d] = static_cast<std::int64_t>(hi) - w.lo[d] + 1;
+  }
   if (w.size() == 1) {
-    const std::int64_t gi = grid.cell_axis(0, w.lo[0]), gj = grid.cell_axis(1, w.lo[1]), gk = grid.cell_axis(2, w.lo[2]);
-    if (gi < 0 || gj < 0 || gk < 0) return false;
     s.count_grid(static_cast<std::int64_t>(t.size()));
     ++s.fast_path;
-    sink(grid.index(gi, gj, gk), p.volume);
+    sink(grid.index(w.lo[0], w.lo[1], w.lo[2]), p.volume);
     return true;
   }
   if (t.split_points.empty() || w.m[0] > 2 || w.m[1] > 2 || w.m[2] > 2) return false;
   Eigen::Vector3d base;
   for (int d = 0; d < 3; ++d) base[d] = grid.axis_coordinate(d, p.centre[d]) - double(w.lo[d]);
-  if (!deposit_by_octants(ctx, s, p, t, particle_rotation(ctx.opts, p), w, base, sink)) return false;
+  float rows[9];
+  if (!deposit_by_octants(ctx, s, p, t, particle_rotation_rows(ctx.opts, p, rows), w, base, sink)) return false;
   s.count_grid(static_cast<std::int64_t>(t.size()));
   s.sub_elements += static_cast<std::int64_t>(t.size());
   return true;

@@ -37,5 +37,8 @@ enum class SplitPath { fastest, portable };
 /// plane. Needs t.split_points and |tau[d]| <= 2.
 bool count_octants(const ParticleTemplate& t, const Eigen::Matrix3d& R, unsigned split, const double tau[3],
                    std::int32_t counts[8], SplitPath path = SplitPath::fastest);
+/// The same with R given as floats, row by row (9 values: each entry of R rounded to float).
+bool count_octants(const ParticleTemplate& t, const float* rows, unsigned split, const double tau[3],
+                   std::int32_t counts[8], SplitPath path = SplitPath::fastest);
 
 }  // namespace vfe::kernels

@@ -61,6 +61,10 @@ Eigen::Matrix3d random_rotation(std::uint64_t index, std::uint64_t seed);
 /// template points with cell faces.
 const Eigen::Matrix3d& banked_random_rotation(std::uint64_t index, std::uint64_t seed);
 
+/// The same matrix of the same bank as floats, row by row (9 values; half the bytes, for
+/// code that compares in float).
+const float* banked_random_rotation_rows(std::uint64_t index, std::uint64_t seed);
+
 /// Rotation matrix of a quaternion (w, x, y, z), normalised first.
 inline Eigen::Matrix3d rotation_from_quaternion(const double* q) {
   return Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized().toRotationMatrix();
