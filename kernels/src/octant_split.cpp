@@ -145,8 +145,7 @@ bool has_avx2() {
 bool count_octants(const ParticleTemplate& t, const Eigen::Matrix3d& R, unsigned split, const double tau[3],
                    std::int32_t counts[8], SplitPath path) {
   float rows[9];
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) rows[3 * i + j] = static_cast<float>(R(i, j));
+  rotation_rows(R, rows);
   return count_octants(t, rows, split, tau, counts, path);
 }
 

@@ -206,9 +206,7 @@ const Eigen::Matrix3d& banked_random_rotation(std::uint64_t index, std::uint64_t
 const float* banked_random_rotation_rows(std::uint64_t index, std::uint64_t seed) {
   static const std::vector<float> rows = [] {
     std::vector<float> r(9 * kBank);
-    for (std::size_t i = 0; i < kBank; ++i)
-      for (int a = 0; a < 3; ++a)
-        for (int b = 0; b < 3; ++b) r[9 * i + 3 * a + b] = static_cast<float>(rotation_bank()[i](a, b));
+    for (std::size_t i = 0; i < kBank; ++i) rotation_rows(rotation_bank()[i], r.data() + 9 * i);
     return r;
   }();
   return rows.data() + 9 * bank_slot(index, seed);

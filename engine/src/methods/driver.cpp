@@ -101,8 +101,7 @@ void deposit_points(const Context& ctx, Scratch& s, const Particle& p, const ker
     return;
   }
   float rows[9];
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) rows[3 * i + j] = static_cast<float>(R(i, j));
+  kernels::rotation_rows(R, rows);
   if (deposit_by_octants(ctx, s, p, t, rows, w, base, [&](std::int64_t cell, double v) { s.deposits.push_back({cell, v}); }))
     return;
   const Eigen::Matrix3d to_cells = inv_h.asDiagonal() * R * r;

@@ -24,9 +24,7 @@ Eigen::Matrix3d particle_rotation(const Options& opts, const Particle& p) {
 const float* particle_rotation_rows(const Options& opts, const Particle& p, float buffer[9]) {
   if (opts.orientation == Orientation::random && opts.rotation_bank)
     return kernels::banked_random_rotation_rows(p.rotation_key, opts.seed);
-  const Eigen::Matrix3d R = particle_rotation(opts, p);
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) buffer[3 * i + j] = static_cast<float>(R(i, j));
+  kernels::rotation_rows(particle_rotation(opts, p), buffer);
   return buffer;
 }
 

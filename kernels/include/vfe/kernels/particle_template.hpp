@@ -65,6 +65,12 @@ const Eigen::Matrix3d& banked_random_rotation(std::uint64_t index, std::uint64_t
 /// code that compares in float).
 const float* banked_random_rotation_rows(std::uint64_t index, std::uint64_t seed);
 
+/// R rounded to floats, row by row: the layout banked_random_rotation_rows gives.
+inline void rotation_rows(const Eigen::Matrix3d& R, float rows[9]) {
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) rows[3 * i + j] = static_cast<float>(R(i, j));
+}
+
 /// Rotation matrix of a quaternion (w, x, y, z), normalised first.
 inline Eigen::Matrix3d rotation_from_quaternion(const double* q) {
   return Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized().toRotationMatrix();
