@@ -238,7 +238,7 @@ struct Engine::Impl {
       if (opts.method == Method::exact)
         if (const std::string why = detail::exact_shape_refusal(sh.shape, id); !why.empty())
           throw Error(VFE_ERROR_UNSUPPORTED, why);
-      if (opts.method != Method::pmm) continue;
+      if (opts.method != Method::pmm && opts.method != Method::automatic) continue;  // auto: shapes take pmm
       if (opts.particle_grid > 0) {
         sh.variants = &shape_template(id, opts.particle_grid, sh.variants_needed);
         continue;
@@ -539,7 +539,7 @@ struct Engine::Impl {
     const Validation v = fused ? fused_direct(pa, pl) : validate(pa);
     const detail::TemplateBank bank =
         templates.prepare(opts, v.d_min, v.d_max, mesh.smallest_cell_volume(), mesh.largest_cell_volume());
-    if (opts.method == Method::pmm && !bank.fixed && !bank.templates.empty())
+    if ((opts.method == Method::pmm || opts.method == Method::automatic) && !bank.fixed && !bank.templates.empty())
       log->info("particle_grid=auto: {} to {} sub-elements per particle", bank.templates.front()->size(),
                 bank.templates.back()->size());
     prepare_shapes(pa);
@@ -801,6 +801,7 @@ struct Engine::Impl {
   Report gather_report(const ParticleArrays& pa, double particle_volume_sum) {
     Report rep{};
     lattice_particles = 0;
+    auto_paths[0] = auto_paths[1] = auto_paths[2] = 0;
     rep.particles = pa.n;
     rep.particle_volume = particle_volume_sum;
     rep.particle_grid_min = std::numeric_limits<std::int64_t>::max();
@@ -810,6 +811,9 @@ struct Engine::Impl {
       rep.sub_elements += s.sub_elements;
       rep.outside_particles += s.outside_particles;
       lattice_particles += s.lattice_particles;
+      auto_paths[0] += s.auto_fast;
+      auto_paths[1] += s.auto_pmm;
+      auto_paths[2] += s.auto_exact;
       rep.particle_grid_min = std::min(rep.particle_grid_min, s.grid_min);
       rep.particle_grid_max = std::max(rep.particle_grid_max, s.grid_max);
       first_error = std::min(first_error, s.first_error);
@@ -846,6 +850,8 @@ struct Engine::Impl {
   bool fused_pass = false;
   /// Particles of the last compute that the box lattice's grid path took.
   std::int64_t lattice_particles = 0;
+  /// method=auto: particles of the last compute on the fast path, pmm and exact.
+  std::int64_t auto_paths[3] = {0, 0, 0};
   void count_overfull() {
     overfull_cells = 0;
     overfull_volume = 0;
@@ -1094,6 +1100,9 @@ double Engine::last_report_value(std::string_view key) const {
       {"fused_pass", impl_->fused_pass ? 1.0 : 0.0},
       {"lattice_cells", impl_->mesh.lattice() ? double(impl_->mesh.cell_count()) : 0.0},
       {"lattice_particles", double(impl_->have_field ? impl_->lattice_particles : 0)},
+      {"auto_fast", double(impl_->have_field ? impl_->auto_paths[0] : 0)},
+      {"auto_pmm", double(impl_->have_field ? impl_->auto_paths[1] : 0)},
+      {"auto_exact", double(impl_->have_field ? impl_->auto_paths[2] : 0)},
   };
   std::string known;
   for (const auto& [name, value] : facts) {
