@@ -56,7 +56,8 @@ struct Sample {
   double pmm_ns, exact_ns;
 };
 
-/// Least squares time = features . x with x >= 0 (a column whose coefficient comes out
+/// Least squares time = features . x in relative terms (each row over its time, so small
+/// spheres weigh as much as large ones) with x >= 0 (a column whose coefficient comes out
 /// negative, a work measure that others already explain, is dropped and the rest refitted);
 /// prints x and the relative residual.
 Eigen::VectorXd fit(const char* what, const std::vector<std::vector<double>>& rows, const std::vector<double>& times) {
@@ -64,8 +65,8 @@ Eigen::VectorXd fit(const char* what, const std::vector<std::vector<double>>& ro
   Eigen::MatrixXd a(n, k);
   Eigen::VectorXd b(n);
   for (Eigen::Index i = 0; i < n; ++i) {
-    for (Eigen::Index j = 0; j < k; ++j) a(i, j) = rows[i][j];
-    b[i] = times[i];
+    for (Eigen::Index j = 0; j < k; ++j) a(i, j) = rows[i][j] / times[i];
+    b[i] = 1.0;
   }
   std::vector<bool> kept(static_cast<std::size_t>(k), true);
   Eigen::VectorXd x = Eigen::VectorXd::Zero(k);
@@ -89,8 +90,8 @@ Eigen::VectorXd fit(const char* what, const std::vector<std::vector<double>>& ro
   }
   std::printf("  %-50s", what);
   for (Eigen::Index j = 0; j < k; ++j) std::printf(" %8.3g", x[j]);
-  std::printf("   (%lld spheres, rms residual %.0f %% of the mean)\n", static_cast<long long>(n),
-              100 * std::sqrt((a * x - b).squaredNorm() / double(n)) / (b.sum() / double(n)));
+  std::printf("   (%lld spheres, rms relative residual %.0f %%)\n", static_cast<long long>(n),
+              100 * std::sqrt((a * x - b).squaredNorm() / double(n)));
   return x;
 }
 
@@ -189,7 +190,7 @@ int main(int argc, char** argv) {
     const std::int64_t cells = static_cast<std::int64_t>(std::ceil(0.012 / h));
     EngineMesh mesh(CartesianGridSpec{{0, 0, 0}, {h, h, h}, {cells, cells, cells}});
     sample_mesh<Context>(
-        mesh, [&](const MethodContext& m) { return Context{m, *mesh.cartesian()}; }, pmm_particle, exact_particle,
+        mesh, [&](const MethodContext& m) { return Context{m, *mesh.cartesian()}; }, grid_pmm, exact_particle,
         [](const Context& c, Scratch& s, const Particle& p) { return path_costs(c, s, p); }, centres_in(mesh.bounds(), n, 1),
         grid_samples);
   }

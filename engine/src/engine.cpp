@@ -5,6 +5,7 @@
 
 #include "accumulator.hpp"
 #include "engine_mesh.hpp"
+#include "methods/hybrid.hpp"
 #include "methods/lattice.hpp"
 #include "methods/registry.hpp"
 #include "methods/shape_exact.hpp"
@@ -463,8 +464,10 @@ struct Engine::Impl {
   /// particle's fast path or octant count (methods/driver.hpp, pmm_sphere_quick) adds
   /// straight into the thread's field; a particle that takes neither goes through the
   /// driver. The same cells as the general loop, with less per particle around them.
+  /// method=auto takes the same pass with its own quick case (methods/hybrid.hpp).
   bool fuses_pmm(const ParticleArrays& pa, const detail::AccumulationPlan& pl) const {
-    return opts.method == Method::pmm && mesh.kind() == MeshKind::cartesian && !pa.shape_ids && !mesh.periodic() &&
+    return (opts.method == Method::pmm || opts.method == Method::automatic) && mesh.kind() == MeshKind::cartesian &&
+           !pa.shape_ids && !mesh.periodic() &&
            opts.orientation != Orientation::given && opts.fast_path && pl.strategy == Accumulation::privatised &&
            !pl.uses_blocks() && !pl.touched_only;
   }
@@ -477,14 +480,19 @@ struct Engine::Impl {
           Scratch& s = scratch.local();
           double* const field = thread_field();
           auto add = [field](std::int64_t cell, double v) { field[cell] += v; };
+          const bool hybrid = opts.method == Method::automatic;
           for (std::int64_t p = r.begin(); p < r.end(); ++p) {
             __builtin_prefetch(pa.centres + (p + 16) * pa.centres_stride);
             __builtin_prefetch(pa.radii + (p + 16) * pa.radii_stride);
             const double radius = pa.radius(p);
             detail::Particle part{p, pa.centre(p), radius, sphere_volume(radius), nullptr, pa.rotation_key(p)};
-            if (detail::pmm_sphere_quick(ctx, s, part, add)) continue;
+            if (hybrid ? detail::auto_sphere_quick(ctx, s, part, add) : detail::pmm_sphere_quick(ctx, s, part, add))
+              continue;
             s.deposits.clear();
-            detail::pmm_particle(ctx, s, particle(pa, p));
+            if (hybrid)
+              detail::auto_particle(ctx, s, particle(pa, p));
+            else
+              detail::pmm_particle(ctx, s, particle(pa, p));
             for (const Deposit& d : s.deposits) add(d.cell, d.volume);
           }
         });

@@ -60,13 +60,16 @@ std::array<int, 3> check_paths(Engine& e, const Particles& p, const std::string&
     }
     EXPECT_LE(worst, 1e-14 * vp) << "sphere " << i << " on path " << path;
   }
+  ::testing::Test::RecordProperty("paths_fast_pmm_exact",
+                 std::to_string(paths[0]) + " " + std::to_string(paths[1]) + " " + std::to_string(paths[2]));
   e.configure("method=auto " + options);
   const std::vector<double> all = compute_range(e, p, ids, 0, p.radii.size());
   EXPECT_EQ(path_count(e, "auto_fast"), paths[0]);
   EXPECT_EQ(path_count(e, "auto_pmm"), paths[1]);
   EXPECT_EQ(path_count(e, "auto_exact"), paths[2]);
   for (std::size_t c = 0; c < all.size(); ++c) EXPECT_NEAR(all[c], sum[c], 1e-13 * p.volume());
-  EXPECT_NEAR(std::accumulate(all.begin(), all.end(), 0.0), p.volume(), 1e-12 * p.volume());
+  EXPECT_NEAR(std::accumulate(all.begin(), all.end(), 0.0) + e.last_report_value("dropped_volume"), p.volume(),
+              1e-12 * p.volume());
   return paths;
 }
 
@@ -91,10 +94,18 @@ TEST(Hybrid, GradedAndPolyhedralSpheresTakeTheirPathsResult) {
     for (double dx = 0.0004; x.back() < 0.012; dx *= 1.15) x.push_back(x.back() + dx);
   }
   Engine graded(RectilinearGridSpec{nodes});
-  const auto g = check_paths(graded, random_spheres(6, 40, 0.001, 0.011, 0.0002, 0.0012), "outside=drop");
-  EXPECT_GT(g[1] * g[2], 0);
+  Particles mixed = random_spheres(6, 40, 0.001, 0.011, 0.00015, 0.0015);
+  for (std::size_t k = 8; k <= 10; ++k) {  // small spheres on a face between coarse cells: pmm's few sub-elements
+    const double mid = 0.5 * (nodes[1][k] + nodes[1][k + 1]);
+    mixed.add(nodes[0][k], mid, mid, 0.15 * (nodes[0][k + 1] - nodes[0][k]));
+  }
+  const auto g = check_paths(graded, mixed, "outside=drop");
+  EXPECT_GT(g[1], 0);
+  EXPECT_GT(g[2], 0);
   Engine snappy(PolyMeshSpec{kData + "openfoam/snappy_obstacle"});
-  const auto s = check_paths(snappy, random_spheres(7, 40, 0.003, 0.017, 0.0004, 0.0006), "outside=nearest");
+  Particles around_tube = random_spheres(7, 40, 0.003, 0.017, 0.0004, 0.0006);
+  for (std::size_t i = 2; i < around_tube.centres.size(); i += 3) around_tube.centres[i] += 0.015;  // z 18 to 32 mm
+  const auto s = check_paths(snappy, around_tube, "outside=nearest");
   EXPECT_GT(s[1], 0);
   EXPECT_GT(s[2], 0);
   Engine cylinder(PolyMeshSpec{kData + "openfoam/cylinder_ogrid_coarse"});

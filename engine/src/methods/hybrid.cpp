@@ -13,9 +13,9 @@ namespace {
 // docs/performance.md, "method=auto"): least-squares fits of each driver's time per
 // particle against its work, on synthetic spheres over the mesh kind's cells; the fit
 // keeps every constant >= 0, so a work measure that others explain gets 0.
-constexpr GridCosts kCartesian{210, 1.9, 0.2, 0, 58};
-constexpr GridCosts kRectilinear{0, 10.3, 10.3, 233, 31.4};
-constexpr PolyCosts kPolyhedral{0, 19.9, 2060, 0, 83.6, 0, 127};
+constexpr GridCosts kCartesian{67, 2.0, 0.2, 44, 36};
+constexpr GridCosts kRectilinear{149, 7.8, 7.8, 172, 31};
+constexpr PolyCosts kPolyhedral{0, 19, 190, 0, 3.6, 147, 85};
 
 /// Cells from lo to hi along an axis of n cells, clamped to the mesh unless it wraps (exact's box of cells).
 std::int64_t cells_of_box(std::int64_t lo, std::int64_t hi, std::int64_t n, bool periodic) {
@@ -41,6 +41,7 @@ PathCosts path_costs(const Context& ctx, Scratch& /*unused on a grid*/, const Pa
   if ((k.fast = k.fast_cell >= 0)) return k;
   const GridCosts& m = cartesian_costs();
   const kernels::ParticleTemplate& t = ctx.template_for(p);
+  k.pmm_template = &t;
   const Window w = make_window(grid, c, Eigen::Vector3d::Constant(r * t.reach));
   bool in_mesh = true, small = true;
   for (int d = 0; d < 3; ++d) {
@@ -72,6 +73,7 @@ PathCosts path_costs(const RectilinearContext& ctx, Scratch& /*unused on a grid*
   if ((k.fast = k.fast_cell >= 0)) return k;
   const GridCosts& m = rectilinear_costs();
   const kernels::ParticleTemplate& t = ctx.bank.template_for(2 * r, grid.cell_volume(grid.nearest(c)));
+  k.pmm_template = &t;
   if (rectilinear_one_cell(ctx, c, Eigen::Vector3d::Constant(r * t.reach)) >= 0) {
     k.pmm = 0;
   } else {
@@ -103,6 +105,7 @@ PathCosts path_costs(const PolyContext& ctx, Scratch& s, const Particle& p, bool
   const PolyCosts& m = polyhedral_costs();
   const std::int64_t cell = centre_cell >= 0 ? centre_cell : ctx.locator->nearest_cell(c);
   const kernels::ParticleTemplate& t = ctx.bank.template_for(2 * r, mesh.cell_volume(cell));
+  k.pmm_template = &t;
   const Eigen::Vector3d half = Eigen::Vector3d::Constant(r);
   ctx.locator->hash().cells_in_box(Eigen::AlignedBox3d(c - half, c + half), s.candidate_cells);
   const double candidates = double(s.candidate_cells.size());
@@ -151,7 +154,9 @@ void take_cheapest(const MeshContext& ctx, Scratch& s, const Particle& p,
     s.add(k.fast_cell, p.volume);
   } else if (k.pmm < k.exact) {
     ++s.auto_pmm;
-    pmm(ctx, s, p);
+    Particle q = p;
+    q.shape_template = k.pmm_template;  // the same template the bank gives it, not looked up again
+    pmm(ctx, s, q);
   } else {
     ++s.auto_exact;
     exact(ctx, s, p);
@@ -160,8 +165,16 @@ void take_cheapest(const MeshContext& ctx, Scratch& s, const Particle& p,
 
 }  // namespace
 
+void grid_pmm(const Context& ctx, Scratch& s, const Particle& p) {
+  if (!p.shaped && pmm_sphere_quick(ctx, s, p, [&](std::int64_t cell, double v) { s.deposits.push_back({cell, v}); }))
+    return;
+  pmm_particle(ctx, s, p);
+}
+
 void auto_particle(const Context& ctx, Scratch& s, const Particle& p) {
-  take_cheapest(ctx, s, p, pmm_particle, exact_particle);
+  if (!p.shaped && auto_sphere_quick(ctx, s, p, [&](std::int64_t cell, double v) { s.deposits.push_back({cell, v}); }))
+    return;
+  take_cheapest(ctx, s, p, grid_pmm, exact_particle);
 }
 void rectilinear_auto(const RectilinearContext& ctx, Scratch& s, const Particle& p) {
   take_cheapest(ctx, s, p, rectilinear_pmm, rectilinear_exact);

@@ -41,6 +41,8 @@ const PolyCosts& polyhedral_costs();
 struct PathCosts {
   bool fast = false;
   std::int64_t fast_cell = -1;  ///< the cell holding the ball when fast
+  /// pmm's template for the sphere (the bank's pick, made once: pmm then takes it as given)
+  const kernels::ParticleTemplate* pmm_template = nullptr;
   double pmm = 0, exact = 0;
   std::int64_t pmm_points = 0;  ///< pmm's sub-elements (0 on its own fast path)
   bool counted = false;         ///< pmm would count per octant
@@ -52,6 +54,30 @@ PathCosts path_costs(const RectilinearContext& ctx, Scratch& s, const Particle& 
 /// On a polyMesh the exact cost is summed over the candidate cells until it passes pmm's
 /// (unless `full`, for calibration), so a sphere that goes to pmm pays little for the choice.
 PathCosts path_costs(const PolyContext& ctx, Scratch& s, const Particle& p, bool full = false);
+
+/// pmm as auto runs it on a Cartesian grid: its quick cases (the fast path, the octant count;
+/// pmm_sphere_quick, as method=pmm's fused pass) where they apply, else pmm_particle.
+void grid_pmm(const Context& ctx, Scratch& s, const Particle& p);
+
+/// auto's quick case for a sphere on a Cartesian grid, the choice the full model would make
+/// at a fraction of its cost: when counting pmm's sub-elements per octant costs less than
+/// exact on the fewest cells it can take (two), a sphere whose template lies in at most
+/// 2 x 2 x 2 mesh cells goes to pmm_sphere_quick (the fast path or the count). False, with
+/// nothing added or counted, otherwise.
+template <class Sink>
+bool auto_sphere_quick(const Context& ctx, Scratch& s, const Particle& p, Sink&& sink) {
+  const GridCosts& m = cartesian_costs();
+  Particle q = p;
+  q.shape_template = &ctx.template_for(p);  // looked up once
+  if (!(m.pmm_particle + m.pmm_counted * double(q.shape_template->size()) < m.exact_particle + 2 * m.exact_cell))
+    return false;
+  const std::int64_t fast = s.fast_path;
+  if (!pmm_sphere_quick(ctx, s, q, sink)) return false;
+  // One deposit is the fast path when the ball itself lies in the cell (exact's as well).
+  ++(s.fast_path != fast && single_cell(ctx, p.centre, Eigen::Vector3d::Constant(p.radius)) >= 0 ? s.auto_fast
+                                                                                                  : s.auto_pmm);
+  return true;
+}
 
 // method=auto's drivers: a non-spherical particle takes pmm.
 void auto_particle(const Context& ctx, Scratch& s, const Particle& p);
