@@ -1,16 +1,18 @@
-// The cost model of method=auto (engine/src/methods/hybrid.hpp): times pmm's and exact's
-// drivers sphere by sphere on each mesh kind and fits each path's time per particle to its
-// work (sub-elements, cells, face points) by least squares. Prints the fitted constants in
-// the order of GridCosts / PolyCosts, for hybrid.cpp, and how well the model ranks the two
-// paths (the share of spheres it sends the cheaper way, and the time that choice costs
-// against the faster path per sphere). One thread; a benchmark of engine internals.
-//   build/release/vfe_bench_auto_costs [particles per scene]
+// The cost model of method=auto (engine/src/methods/hybrid.hpp): times whole computes of
+// pmm (fixed particle grids) and exact on groups of random spheres over each mesh kind, and
+// fits each path's time per sphere (less direct's, the cost every method shares) to the
+// group's mean work as the model sees it (sub-elements, counted or located; cells; on a
+// polyMesh candidates, cut box cells and face points) by least squares in relative terms,
+// every constant >= 0. Prints the constants in the order of GridCosts / PolyCosts (for
+// hybrid.cpp) and each group's measured and fitted times. One thread.
+//   build/release/vfe_bench_auto_costs [spheres per group]
 
 #include "engine_mesh.hpp"
 #include "methods/hybrid.hpp"
 #include "particle_grid.hpp"
 #include "polymesh/polymesh.hpp"
 
+#include <vfe/engine.hpp>
 #include <vfe/kernels/divided.hpp>
 
 #include <Eigen/Dense>
@@ -35,46 +37,48 @@ namespace {
 using namespace vfe;
 using namespace vfe::detail;
 
-constexpr double kRadius = 0.0005;  // spheres of 1 mm, the study's beds
-const std::int64_t kGrids[] = {35, 300, 2000, 8000};
+const std::int64_t kGrids[] = {35, 300, 815, 2000};
 
-/// Nanoseconds of one call of f: the least of a few rounds of a few calls.
-double time_ns(const std::function<void()>& f) {
-  double best = 1e300;
-  for (int round = 0; round < 3; ++round) {
-    constexpr int kCalls = 3;
-    const auto start = std::chrono::steady_clock::now();
-    for (int i = 0; i < kCalls; ++i) f();
-    best = std::min(best, std::chrono::duration<double, std::nano>(std::chrono::steady_clock::now() - start).count() / kCalls);
-  }
-  return best;
-}
-
-/// One sphere's times and work for one template size.
-struct Sample {
-  PathCosts work;
-  double pmm_ns, exact_ns;
+/// One group: its mean work per sphere (the model's features) and its time per sphere.
+struct Group {
+  std::string what;
+  std::vector<double> features;
+  double ns;
 };
 
-/// Least squares time = features . x in relative terms (each row over its time, so small
-/// spheres weigh as much as large ones) with x >= 0 (a column whose coefficient comes out
-/// negative, a work measure that others already explain, is dropped and the rest refitted);
-/// prints x and the relative residual.
-Eigen::VectorXd fit(const char* what, const std::vector<std::vector<double>>& rows, const std::vector<double>& times) {
-  const auto n = static_cast<Eigen::Index>(rows.size()), k = static_cast<Eigen::Index>(rows.front().size());
-  Eigen::MatrixXd a(n, k);
-  Eigen::VectorXd b(n);
-  for (Eigen::Index i = 0; i < n; ++i) {
-    for (Eigen::Index j = 0; j < k; ++j) a(i, j) = rows[i][j] / times[i];
-    b[i] = 1.0;
+/// Nanoseconds per sphere of a compute with these options: the least of 3 after a warm-up.
+double compute_ns(Engine& e, const std::string& options, const std::vector<double>& centres, const std::vector<double>& radii) {
+  e.configure(options + " threads=1");
+  ParticleView v;
+  v.n = static_cast<std::int64_t>(radii.size());
+  v.centres = centres.data();
+  v.radii = radii.data();
+  std::vector<double> out(e.cell_count());
+  e.compute(v, out);
+  double best = 1e300;
+  for (int i = 0; i < 3; ++i) {
+    const auto start = std::chrono::steady_clock::now();
+    e.compute(v, out);
+    best = std::min(best, std::chrono::duration<double, std::nano>(std::chrono::steady_clock::now() - start).count());
   }
+  return best / double(v.n);
+}
+
+/// Least squares 1 = (features / time) . x (relative terms: every group weighs alike), x >= 0:
+/// a column whose coefficient comes out negative is dropped and the rest refitted.
+Eigen::VectorXd fit(const char* what, const char* names, const std::vector<Group>& groups) {
+  const auto n = static_cast<Eigen::Index>(groups.size()), k = static_cast<Eigen::Index>(groups.front().features.size());
+  Eigen::MatrixXd a(n, k);
+  for (Eigen::Index i = 0; i < n; ++i)
+    for (Eigen::Index j = 0; j < k; ++j) a(i, j) = groups[i].features[j] / groups[i].ns;
+  const Eigen::VectorXd b = Eigen::VectorXd::Ones(n);
   std::vector<bool> kept(static_cast<std::size_t>(k), true);
   Eigen::VectorXd x = Eigen::VectorXd::Zero(k);
   for (bool changed = true; changed;) {
     changed = false;
     std::vector<Eigen::Index> cols;
     for (Eigen::Index j = 0; j < k; ++j)
-      if (kept[static_cast<std::size_t>(j)]) cols.push_back(j);
+      if (kept[static_cast<std::size_t>(j)] && a.col(j).cwiseAbs().maxCoeff() > 0) cols.push_back(j);
     Eigen::MatrixXd sub(n, static_cast<Eigen::Index>(cols.size()));
     for (std::size_t j = 0; j < cols.size(); ++j) sub.col(static_cast<Eigen::Index>(j)) = a.col(cols[j]);
     const Eigen::VectorXd y = sub.colPivHouseholderQr().solve(b);
@@ -88,156 +92,136 @@ Eigen::VectorXd fit(const char* what, const std::vector<std::vector<double>>& ro
       changed = true;
     }
   }
-  std::printf("  %-50s", what);
-  for (Eigen::Index j = 0; j < k; ++j) std::printf(" %8.3g", x[j]);
-  std::printf("   (%lld spheres, rms relative residual %.0f %%)\n", static_cast<long long>(n),
+  std::printf("  %s {%s}:", what, names);
+  for (Eigen::Index j = 0; j < k; ++j) std::printf(" %.3g", x[j]);
+  std::printf("   (%lld groups, rms relative residual %.0f %%)\n", static_cast<long long>(n),
               100 * std::sqrt((a * x - b).squaredNorm() / double(n)));
+  for (Eigen::Index i = 0; i < n; ++i)
+    std::printf("    %-44s measured %8.0f ns, fitted %8.0f ns\n", groups[i].what.c_str(), groups[i].ns,
+                groups[i].ns * (a.row(i) * x)(0));
   return x;
 }
 
-/// How the constants now in hybrid.cpp rank the paths on these samples.
-void report_choice(const std::vector<Sample>& samples) {
-  std::int64_t right = 0, taken = 0;
-  double chosen = 0, best = 0;
-  for (const Sample& s : samples) {
-    if (s.work.fast) continue;
-    ++taken;
-    const bool pmm = s.work.pmm < s.work.exact;
-    right += pmm == (s.pmm_ns < s.exact_ns);
-    chosen += pmm ? s.pmm_ns : s.exact_ns;
-    best += std::min(s.pmm_ns, s.exact_ns);
-  }
-  if (taken)
-    std::printf("  the constants in hybrid.cpp send %.0f %% of %lld spheres the cheaper way; their time is %.2f x the "
-                "cheaper path's\n",
-                100.0 * double(right) / double(taken), static_cast<long long>(taken), chosen / best);
-}
-
-std::vector<Eigen::Vector3d> centres_in(const Eigen::AlignedBox3d& box, int n, std::uint64_t seed) {
+std::vector<double> centres_in(const Eigen::AlignedBox3d& box, double r, int n, std::uint64_t seed,
+                               const std::function<bool(const Eigen::Vector3d&)>& keep) {
   std::mt19937_64 rng(seed);
-  std::vector<Eigen::Vector3d> c;
-  for (int i = 0; i < n; ++i) {
+  std::vector<double> c;
+  while (static_cast<int>(c.size()) < 3 * n) {
     Eigen::Vector3d x;
-    for (int d = 0; d < 3; ++d)
-      x[d] = std::uniform_real_distribution<double>(box.min()[d] + kRadius, box.max()[d] - kRadius)(rng);
-    c.push_back(x);
+    for (int d = 0; d < 3; ++d) x[d] = std::uniform_real_distribution<double>(box.min()[d] + r, box.max()[d] - r)(rng);
+    if (keep(x)) c.insert(c.end(), {x[0], x[1], x[2]});
   }
   return c;
 }
 
-/// Samples of every sphere at every template size on one mesh; `driver_pmm` and
-/// `driver_exact` compute one sphere, `work` gives the model's view of it.
+/// The groups of one mesh: per radius, exact and pmm at each grid, with the model's mean
+/// work per sphere (work(ctx, scratch, particle) with a bank of that grid).
 template <class MeshContext>
-void sample_mesh(const EngineMesh& mesh, const std::function<MeshContext(const MethodContext&)>& make,
-                 void (*pmm)(const MeshContext&, Scratch&, const Particle&),
-                 void (*exact)(const MeshContext&, Scratch&, const Particle&),
-                 const std::function<PathCosts(const MeshContext&, Scratch&, const Particle&)>& work,
-                 const std::vector<Eigen::Vector3d>& centres, std::vector<Sample>& out) {
+void groups_of(const char* name, const EngineMesh& mesh, Engine& engine,
+               const std::function<MeshContext(const MethodContext&)>& make,
+               const std::function<PathCosts(const MeshContext&, Scratch&, const Particle&)>& work, int n,
+               std::initializer_list<double> radii, std::vector<Group>& pmm, std::vector<Group>& exact, bool grid) {
   TemplateCache cache;
   const kernels::ParticleTemplate divided = kernels::make_divided_template();
   Options opts;
   Scratch s;
-  for (const std::int64_t n : kGrids) {
-    const kernels::ParticleTemplate* t = &cache.get(opts, n);
-    TemplateBank bank;
-    bank.templates = std::span<const kernels::ParticleTemplate* const>(&t, 1);
-    bank.fixed = true;
-    const MeshContext ctx = make(MethodContext{opts, bank, divided});
-    for (std::size_t i = 0; i < centres.size(); ++i) {
-      Particle p{static_cast<std::int64_t>(i), centres[i], kRadius, 4.0 / 3.0 * std::numbers::pi * kRadius * kRadius * kRadius,
-                 nullptr, static_cast<std::uint64_t>(i)};
-      Sample smp{work(ctx, s, p), 0, 0};
-      if (smp.work.fast || smp.work.pmm == 0) continue;
-      smp.pmm_ns = time_ns([&] { s.deposits.clear(); pmm(ctx, s, p); });
-      smp.exact_ns = time_ns([&] { s.deposits.clear(); exact(ctx, s, p); });
-      out.push_back(smp);
+  for (const double r : radii) {
+    const std::vector<double> centres = centres_in(mesh.bounds(), r, n, 7, [&](const Eigen::Vector3d& x) {
+      return mesh.locator() ? mesh.locator()->locate(x) >= 0 : true;
+    });
+    const std::vector<double> rs(static_cast<std::size_t>(n), r);
+    const double base = compute_ns(engine, "method=direct", centres, rs);
+    bool exact_done = false;
+    for (const std::int64_t g : kGrids) {
+      const kernels::ParticleTemplate* t = &cache.get(opts, g);
+      TemplateBank bank;
+      bank.templates = std::span<const kernels::ParticleTemplate* const>(&t, 1);
+      bank.fixed = true;
+      const MeshContext ctx = make(MethodContext{opts, bank, divided});
+      double slow = 0, located = 0, counted = 0, cells = 0, boxes = 0, points = 0, cand = 0;
+      for (int i = 0; i < n; ++i) {
+        const Particle p{i, Eigen::Vector3d(centres[3 * i], centres[3 * i + 1], centres[3 * i + 2]), r,
+                         4.0 / 3.0 * std::numbers::pi * r * r * r, nullptr, static_cast<std::uint64_t>(i)};
+        const PathCosts w = work(ctx, s, p);
+        if (w.fast) continue;
+        slow += 1;
+        (w.counted ? counted : located) += double(w.pmm_points);
+        cells += double(w.exact_cells);
+        cand += double(w.exact_cells);
+        boxes += double(w.box_cells);
+        points += double(w.face_points);
+      }
+      const std::string what = std::string(name) + " r=" + std::to_string(r * 1e3).substr(0, 4) + " mm";
+      const double pmm_ns = compute_ns(engine, "method=pmm particle_grid=" + std::to_string(g), centres, rs) - base;
+      if (grid)
+        pmm.push_back({what + " n=" + std::to_string(g), {slow / n, located / n, counted / n}, pmm_ns});
+      else
+        pmm.push_back({what + " n=" + std::to_string(g), {slow / n, located / n, cand / n}, pmm_ns});
+      if (exact_done) continue;
+      exact_done = true;
+      const double exact_ns = compute_ns(engine, "method=exact", centres, rs) - base;
+      if (grid)
+        exact.push_back({what, {slow / n, cells / n}, exact_ns});
+      else
+        exact.push_back({what, {slow / n, cand / n, boxes / n, points / n}, exact_ns});
     }
   }
-  (void)mesh;
-}
-
-void grid_fit(const char* name, const std::vector<Sample>& samples) {
-  std::printf("%s: GridCosts {pmm_particle, pmm_point, pmm_counted, exact_particle, exact_cell} in ns\n", name);
-  std::vector<std::vector<double>> rows;
-  std::vector<double> t;
-  for (const Sample& s : samples) {
-    rows.push_back({1.0, s.work.counted ? 0.0 : double(s.work.pmm_points), s.work.counted ? double(s.work.pmm_points) : 0.0});
-    t.push_back(s.pmm_ns);
-  }
-  // A kind without counted spheres (the rectilinear grid) has a zero column: drop it.
-  const bool any_counted = std::any_of(samples.begin(), samples.end(), [](const Sample& s) { return s.work.counted; });
-  if (!any_counted)
-    for (auto& r : rows) r.pop_back();
-  fit(any_counted ? "pmm: particle, point, counted point" : "pmm: particle, point", rows, t);
-  rows.clear();
-  t.clear();
-  for (const Sample& s : samples) {
-    rows.push_back({1.0, double(s.work.exact_cells)});
-    t.push_back(s.exact_ns);
-  }
-  fit("exact: particle, cell", rows, t);
-  report_choice(samples);
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  const int n = argc > 1 ? std::max(10, std::atoi(argv[1])) : 400;
+  const int n = argc > 1 ? std::max(100, std::atoi(argv[1])) : 3000;
   const std::string data = std::string(VFE_SOURCE_DIR) + "/data/openfoam/";
+  const auto grid_work = [](const Context& c, Scratch& s, const Particle& p) { return path_costs(c, s, p); };
+  const auto graded_work = [](const RectilinearContext& c, Scratch& s, const Particle& p) { return path_costs(c, s, p); };
+  const auto poly_work = [](const PolyContext& c, Scratch& s, const Particle& p) { return path_costs(c, s, p, true); };
 
-  std::vector<Sample> grid_samples;
-  for (const double h : {0.0004, 0.00075, 0.001, 0.002}) {  // chi = 0.4 to 2
+  std::vector<Group> pmm, exact;
+  for (const double h : {0.0004, 0.00075, 0.001, 0.002}) {  // chi = 0.4 to 2 for spheres of 1 mm
     const std::int64_t cells = static_cast<std::int64_t>(std::ceil(0.012 / h));
-    EngineMesh mesh(CartesianGridSpec{{0, 0, 0}, {h, h, h}, {cells, cells, cells}});
-    sample_mesh<Context>(
-        mesh, [&](const MethodContext& m) { return Context{m, *mesh.cartesian()}; }, grid_pmm, exact_particle,
-        [](const Context& c, Scratch& s, const Particle& p) { return path_costs(c, s, p); }, centres_in(mesh.bounds(), n, 1),
-        grid_samples);
+    const CartesianGridSpec spec{{0, 0, 0}, {h, h, h}, {cells, cells, cells}};
+    EngineMesh mesh(spec);
+    Engine engine(spec);
+    groups_of<Context>(("h=" + std::to_string(h * 1e3).substr(0, 4) + " mm").c_str(), mesh, engine,
+                       [&](const MethodContext& m) { return Context{m, *mesh.cartesian()}; }, grid_work, n, {0.0003, 0.0005},
+                       pmm, exact, true);
   }
-  grid_fit("cartesian", grid_samples);
+  std::printf("cartesian: GridCosts in ns\n");
+  const Eigen::VectorXd cp = fit("pmm", "pmm_particle, pmm_point, pmm_counted", pmm);
+  const Eigen::VectorXd ce = fit("exact", "exact_particle, exact_cell", exact);
+  std::printf("  GridCosts{%.3g, %.3g, %.3g, %.3g, %.3g}\n", cp[0], cp[1], cp[2], ce[0], ce[1]);
 
-  std::vector<Sample> graded_samples;
-  for (const double h : {0.0004, 0.001}) {  // graded 1:4 along every axis
+  pmm.clear();
+  exact.clear();
+  for (const double h : {0.0004, 0.001}) {  // graded by 4 % a cell along every axis
     std::array<std::vector<double>, 3> nodes;
     for (auto& x : nodes) {
       x = {0};
       for (double dx = h; x.back() < 0.012; dx *= 1.04) x.push_back(x.back() + dx);
     }
     EngineMesh mesh{RectilinearGrid(nodes)};
-    sample_mesh<RectilinearContext>(
-        mesh, [&](const MethodContext& m) { return RectilinearContext{m, *mesh.rectilinear()}; }, rectilinear_pmm,
-        rectilinear_exact, [](const RectilinearContext& c, Scratch& s, const Particle& p) { return path_costs(c, s, p); },
-        centres_in(mesh.bounds(), n, 2), graded_samples);
+    Engine engine(RectilinearGridSpec{nodes});
+    groups_of<RectilinearContext>(("h0=" + std::to_string(h * 1e3).substr(0, 4) + " mm").c_str(), mesh, engine,
+                                  [&](const MethodContext& m) { return RectilinearContext{m, *mesh.rectilinear()}; },
+                                  graded_work, n, {0.0003, 0.0005}, pmm, exact, true);
   }
-  grid_fit("rectilinear", graded_samples);
+  std::printf("rectilinear: GridCosts in ns (no octant count on a graded grid)\n");
+  const Eigen::VectorXd rp = fit("pmm", "pmm_particle, pmm_point, -", pmm);
+  const Eigen::VectorXd re = fit("exact", "exact_particle, exact_cell", exact);
+  std::printf("  GridCosts{%.3g, %.3g, %.3g, %.3g, %.3g}\n", rp[0], rp[1], rp[1], re[0], re[1]);
 
-  std::vector<Sample> poly_samples;
+  pmm.clear();
+  exact.clear();
   for (const char* name : {"snappy_obstacle", "cylinder_ogrid_coarse"}) {
     EngineMesh mesh(std::make_unique<PolyMesh>(PolyMesh::read(data + name)));
-    std::vector<Eigen::Vector3d> centres;
-    for (const Eigen::Vector3d& c : centres_in(mesh.bounds(), 4 * n, 3))
-      if (mesh.locator()->locate(c) >= 0 && centres.size() < static_cast<std::size_t>(n)) centres.push_back(c);
-    sample_mesh<PolyContext>(
-        mesh, [&](const MethodContext& m) { return PolyContext{m, mesh.locator()}; }, polymesh_pmm, polymesh_exact,
-        [](const PolyContext& c, Scratch& s, const Particle& p) { return path_costs(c, s, p, true); }, centres,
-        poly_samples);
+    Engine engine(PolyMeshSpec{data + name});
+    groups_of<PolyContext>(name, mesh, engine, [&](const MethodContext& m) { return PolyContext{m, mesh.locator()}; },
+                           poly_work, n / 3, {0.0003, 0.0005, 0.0008}, pmm, exact, false);
   }
-  std::printf("polyhedral: PolyCosts {pmm_particle, pmm_point, pmm_candidate, exact_particle, exact_candidate, "
-              "exact_box_cell, exact_face_point} in ns\n");
-  std::vector<std::vector<double>> rows;
-  std::vector<double> t;
-  for (const Sample& s : poly_samples) {
-    rows.push_back({1.0, double(s.work.pmm_points), double(s.work.exact_cells)});
-    t.push_back(s.pmm_ns);
-  }
-  fit("pmm: particle, point, candidate", rows, t);
-  rows.clear();
-  t.clear();
-  for (const Sample& s : poly_samples) {
-    rows.push_back({1.0, double(s.work.exact_cells), double(s.work.box_cells), double(s.work.face_points)});
-    t.push_back(s.exact_ns);
-  }
-  fit("exact: particle, candidate, box cell, face point", rows, t);
-  report_choice(poly_samples);
+  std::printf("polyhedral: PolyCosts in ns\n");
+  const Eigen::VectorXd pp = fit("pmm", "pmm_particle, pmm_point, pmm_candidate", pmm);
+  const Eigen::VectorXd pe = fit("exact", "exact_particle, exact_candidate, exact_box_cell, exact_face_point", exact);
+  std::printf("  PolyCosts{%.3g, %.3g, %.3g, %.3g, %.3g, %.3g, %.3g}\n", pp[0], pp[1], pp[2], pe[0], pe[1], pe[2], pe[3]);
   return 0;
 }

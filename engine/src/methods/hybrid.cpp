@@ -9,13 +9,13 @@ namespace vfe::detail {
 
 namespace {
 
-// Measured with `build/release/vfe_bench_auto_costs 800` (one thread, Release build;
-// docs/performance.md, "method=auto"): least-squares fits of each driver's time per
-// particle against its work, on synthetic spheres over the mesh kind's cells; the fit
-// keeps every constant >= 0, so a work measure that others explain gets 0.
-constexpr GridCosts kCartesian{67, 2.0, 0.2, 44, 36};
-constexpr GridCosts kRectilinear{149, 7.8, 7.8, 172, 31};
-constexpr PolyCosts kPolyhedral{0, 19, 190, 0, 3.6, 147, 85};
+// Measured with `build/release/vfe_bench_auto_costs` (one thread, Release build;
+// docs/performance.md, "method=auto"): whole computes of pmm and exact on groups of random
+// spheres per mesh kind, each path's time per sphere fitted to its mean work by least
+// squares, every constant >= 0 (a work measure that others explain gets 0).
+constexpr GridCosts kCartesian{55, 3.8, 0.33, 116, 37};
+constexpr GridCosts kRectilinear{171, 21, 21, 115, 49};
+constexpr PolyCosts kPolyhedral{0, 62, 412, 0, 0, 0, 242};
 
 /// Cells from lo to hi along an axis of n cells, clamped to the mesh unless it wraps (exact's box of cells).
 std::int64_t cells_of_box(std::int64_t lo, std::int64_t hi, std::int64_t n, bool periodic) {
