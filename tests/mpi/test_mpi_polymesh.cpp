@@ -113,7 +113,7 @@ double max_difference(const std::vector<double>& owned, const std::vector<int64_
   return max_over_ranks(worst);
 }
 
-const char* const kMethods[] = {"direct", "pmm", "exact", "divided", "big_particle", "gaussian", "porous_cube"};
+const char* const kMethods[] = {"direct", "pmm", "exact", "divided", "big_particle", "gaussian", "porous_cube", "auto"};
 
 TEST(DistributedPolyMesh, EqualsSerialEngineForEveryMethod) {
   for (const Mesh& mesh : kMeshes) {
