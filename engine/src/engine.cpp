@@ -1154,6 +1154,14 @@ double Engine::shape_volume(std::int32_t id) const {
   return impl_->shapes[id].shape.volume();
 }
 
+double Engine::shape_reach(std::int32_t id) const {
+  shape_volume(id);  // checks the id
+  const kernels::Shape& shape = impl_->shapes[id].shape;
+  if (shape.kind() == kernels::Shape::Kind::sphere) return 1.0;
+  const Eigen::AlignedBox3d& b = shape.bounds();
+  return b.min().cwiseAbs().cwiseMax(b.max().cwiseAbs()).norm();
+}
+
 std::int64_t Engine::particle_grid_for(double diameter, double cell_size) const {
   const Options& o = impl_->opts;
   std::int64_t n = o.particle_grid;
