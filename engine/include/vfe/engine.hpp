@@ -5,6 +5,7 @@
 #include <vfe/vfe.h>
 
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <memory>
 #include <span>
@@ -100,6 +101,15 @@ struct ParticleView {
 
 using Report = vfe_report;
 
+/// deterministic=1 sums every cell in fixed point, as a whole number of units 2^exponent,
+/// so that a sum does not depend on the order of its terms (threads, ranks, particles).
+__extension__ typedef __int128 FixedSum;
+/// The unit exponent for terms of magnitude at most `largest`: 2^-80 of it.
+inline int fixed_unit_exponent(double largest) {
+  return largest > 0 && std::isfinite(largest) ? std::ilogb(largest) - 80 : 0;
+}
+inline double from_fixed(FixedSum sum, int exponent) { return std::ldexp(static_cast<double>(sum), exponent); }
+
 class VFE_API Engine {
  public:
   /// Builds an engine on a Cartesian grid; throws Error on invalid geometry.
@@ -159,6 +169,21 @@ class VFE_API Engine {
   void weights(std::span<std::int64_t> offsets, std::span<std::int64_t> cells, std::span<double> fractions) const;
   /// out[c*k + j] = sum_p fraction_pc * values[p*k + j] (k = components; overwrites out).
   void deposit(std::int32_t components, std::span<const double> values, std::span<double> out) const;
+  /// deposit() in fixed point: out[c*k + j] in units 2^exponents[j], which must bound the
+  /// values (fixed_unit_exponent of the largest |value| of component j). A distributed
+  /// mesh passes the exponents of all ranks' values, so owners add ghosts' sums exactly.
+  void deposit_fixed(std::int32_t components, std::span<const double> values, std::span<const int> exponents,
+                     std::span<FixedSum> out) const;
+  /// deterministic=1 takes its unit from the largest particle volume of a compute; with a
+  /// bound set here, from the larger of the two (0: none). Every rank of a distributed mesh
+  /// sets the largest volume of all ranks, so all sum in the same unit.
+  void set_deterministic_volume(double largest_particle_volume);
+  /// After a compute with deterministic=1: the solid volume per cell in fixed point.
+  struct FixedField {
+    std::span<const FixedSum> sums;
+    int exponent = 0;
+  };
+  FixedField fixed_solid() const;
   /// out[p*k + j] = sum_c fraction_pc * field[c*k + j] / sum_c fraction_pc (0 with no cell).
   void interpolate(std::int32_t components, std::span<const double> cell_field, std::span<double> out) const;
   /// Sends the engine's log to fn (null: back to stderr).
