@@ -1,4 +1,7 @@
-// C API: a catch-all layer over vfe::Engine. No exception crosses into C.
+// C API: a catch-all layer over an engine backend (vfe/detail/engine_backend.hpp): libvfe's
+// own vfe::Engine, or a backend another library of the tree supplies. No exception crosses
+// into C.
+#include <vfe/detail/engine_backend.hpp>
 #include <vfe/engine.hpp>
 #include <vfe/vfe.h>
 
@@ -8,10 +11,21 @@
 #include <string>
 
 struct vfe_engine {
-  std::unique_ptr<vfe::Engine> engine;
+  std::unique_ptr<vfe::detail::EngineBackend> backend;  ///< what every call runs on
+  bool delegated = false;                                ///< backend given to create_engine
   std::string last_error;
   std::atomic<bool> busy{false};  ///< a call is running on this engine
 };
+
+namespace vfe::detail {
+
+EngineBackend::~EngineBackend() = default;
+
+void EngineBackend::agree(vfe_status mine, const std::string& message) {
+  if (mine != VFE_OK) throw Error(mine, message);
+}
+
+}  // namespace vfe::detail
 
 namespace {
 
@@ -21,6 +35,37 @@ thread_local std::string g_creation_error;
 #define VFE_STR(x) VFE_STR2(x)
 constexpr const char* kVersion =
     VFE_STR(VFE_VERSION_MAJOR) "." VFE_STR(VFE_VERSION_MINOR) "." VFE_STR(VFE_VERSION_PATCH);
+
+/// libvfe's own engine on one mesh as the handle's backend.
+class MeshBackend final : public vfe::detail::EngineBackend {
+ public:
+  template <class MeshSpec>
+  explicit MeshBackend(const MeshSpec& spec) : engine_(spec) {}
+
+  void configure(std::string_view options) override { engine_.configure(options); }
+  std::int64_t cell_count() const override { return engine_.cell_count(); }
+  void cell_volumes(std::span<double> out) const override { engine_.cell_volumes(out); }
+  void compute(const vfe_particles& particles, std::span<double> out) override { engine_.compute(particles, out); }
+  void void_fraction(std::span<double> out) const override { engine_.void_fraction(out); }
+  std::int32_t add_shape(std::string_view spec) override { return engine_.add_shape(spec); }
+  vfe::Engine::WeightsSize weights_size() const override { return engine_.weights_size(); }
+  void weights(std::span<std::int64_t> offsets, std::span<std::int64_t> cells,
+               std::span<double> fractions) const override {
+    engine_.weights(offsets, cells, fractions);
+  }
+  void deposit(std::int32_t components, std::span<const double> values, std::span<double> out) override {
+    engine_.deposit(components, values, out);
+  }
+  void interpolate(std::int32_t components, std::span<const double> cell_field, std::span<double> out) override {
+    engine_.interpolate(components, cell_field, out);
+  }
+  void set_log_callback(vfe_log_fn fn, void* user) override { engine_.set_log_callback(fn, user); }
+  const vfe::Report& last_report() const override { return engine_.last_report(); }
+  double last_report_value(std::string_view key) const override { return engine_.last_report_value(key); }
+
+ private:
+  vfe::Engine engine_;
+};
 
 /// Runs f, turning every exception into a status and a message in `error`.
 template <class F>
@@ -60,25 +105,102 @@ vfe_status on_engine(const vfe_engine* e, F&& f) noexcept {
   return s;
 }
 
+/// Runs a collective call on e: check (this process's arguments, throwing vfe::Error), its
+/// outcome agreed over the backend's processes, then run. So a process with a bad argument
+/// fails the call on every process instead of leaving the others waiting inside run.
+template <class Check, class Run>
+vfe_status collective(const vfe_engine* e, Check&& check, Run&& run) noexcept {
+  return on_engine(e, [&] {
+    std::string message;
+    const vfe_status mine = guarded(message, check);
+    e->backend->agree(mine, message);
+    run();
+  });
+}
+
+std::string null_message(const char* what) { return std::string(what) + " is NULL; pass a valid pointer"; }
+
 vfe_status null_argument(std::string& error, const char* what) {
-  error = std::string(what) + " is NULL; pass a valid pointer";
+  error = null_message(what);
   return VFE_ERROR_INVALID_ARGUMENT;
 }
 
-/// Builds an engine from a mesh spec; *out is set only on success.
-template <class MeshSpec>
-vfe_status create(const MeshSpec& spec, vfe_engine** out) {
+/// The check of a collective call's pointer argument.
+void require_pointer(const void* p, const char* what) {
+  if (!p) throw vfe::Error(VFE_ERROR_INVALID_ARGUMENT, null_message(what));
+}
+
+void require_components(int32_t components) {
+  if (components < 1 || components > 64)
+    throw vfe::Error(VFE_ERROR_INVALID_ARGUMENT, "components is " + std::to_string(components) + "; give 1 to 64");
+}
+
+/// Wraps the backend make() gives into a new handle; *out is set only on success.
+template <class Make>
+vfe_status create(Make&& make, bool delegated, vfe_engine** out) noexcept {
   vfe_engine* created = nullptr;
   const vfe_status s = guarded(g_creation_error, [&] {
     auto e = std::make_unique<vfe_engine>();
-    e->engine = std::make_unique<vfe::Engine>(spec);
+    e->backend = make();
+    e->delegated = delegated;
     created = e.release();
   });
-  if (s == VFE_OK) *out = created;
-  return s;
+  if (s != VFE_OK) return s;
+  if (!out) {
+    delete created;
+    return null_argument(g_creation_error, "out");
+  }
+  *out = created;
+  return VFE_OK;
+}
+
+/// Builds libvfe's own engine from a mesh spec; *out is set only on success.
+template <class MeshSpec>
+vfe_status create(const MeshSpec& spec, vfe_engine** out) {
+  return create([&] { return std::make_unique<MeshBackend>(spec); }, false, out);
+}
+
+/// Packed arrays of n particles as the C API's view (spheres when shape_ids is NULL).
+vfe_particles packed(int64_t n, const double* centres, const double* radii, const double* orientations,
+                     const int32_t* shape_ids) {
+  vfe_particles p{};
+  p.n = n;
+  p.centres = centres;
+  p.radii = radii;
+  p.orientations = orientations;
+  p.shape_ids = shape_ids;
+  return p;
+}
+
+/// The computes' one path; shapes: vfe_compute_shapes, whose shape_ids are required.
+vfe_status compute(vfe_engine* e, const vfe_particles* p, double* solid_volume, bool shapes) {
+  if (!e) return null_argument(g_creation_error, "engine");
+  return collective(
+      e,
+      [&] {
+        require_pointer(p, "particles");
+        require_pointer(solid_volume, "solid_volume");
+        if (shapes && p->n > 0) require_pointer(p->shape_ids, "shape_ids");
+      },
+      [&] { e->backend->compute(*p, std::span<double>(solid_volume, e->backend->cell_count())); });
 }
 
 }  // namespace
+
+namespace vfe::detail {
+
+vfe_status create_engine(const std::function<std::unique_ptr<EngineBackend>()>& make, vfe_engine** out) noexcept {
+  return create(make, true, out);
+}
+
+EngineBackend* backend_of(const vfe_engine* e) noexcept { return e && e->delegated ? e->backend.get() : nullptr; }
+
+vfe_status with_backend(const vfe_engine* e, const std::function<void(EngineBackend*)>& f) noexcept {
+  if (!e) return null_argument(g_creation_error, "engine");
+  return on_engine(e, [&] { f(backend_of(e)); });
+}
+
+}  // namespace vfe::detail
 
 extern "C" {
 
@@ -143,72 +265,57 @@ void vfe_destroy(vfe_engine* e) { delete e; }
 
 vfe_status vfe_configure(vfe_engine* e, const char* options) {
   if (!e) return null_argument(g_creation_error, "engine");
-  if (!options) return null_argument(e->last_error, "options");
-  return on_engine(e, [&] { e->engine->configure(options); });
+  return collective(e, [&] { require_pointer(options, "options"); }, [&] { e->backend->configure(options); });
 }
 
-int64_t vfe_cell_count(const vfe_engine* e) { return e ? e->engine->cell_count() : -1; }
+int64_t vfe_cell_count(const vfe_engine* e) { return e ? e->backend->cell_count() : -1; }
 
 vfe_status vfe_cell_volumes(const vfe_engine* e, double* out) {
   if (!e) return null_argument(g_creation_error, "engine");
   auto& error = const_cast<vfe_engine*>(e)->last_error;
   if (!out) return null_argument(error, "out");
-  return guarded(error, [&] { e->engine->cell_volumes(std::span<double>(out, e->engine->cell_count())); });
+  return guarded(error, [&] { e->backend->cell_volumes(std::span<double>(out, e->backend->cell_count())); });
 }
 
 vfe_status vfe_compute(vfe_engine* e, int64_t n, const double* centres, const double* radii,
                        const double* orientations, double* solid_volume) {
-  if (!e) return null_argument(g_creation_error, "engine");
-  if (!solid_volume) return null_argument(e->last_error, "solid_volume");
-  return on_engine(e, [&] {
-    vfe::ParticleView view;
-    view.n = n;
-    view.centres = centres;
-    view.radii = radii;
-    view.orientations = orientations;
-    e->engine->compute(view, std::span<double>(solid_volume, e->engine->cell_count()));
-  });
+  const vfe_particles p = packed(n, centres, radii, orientations, nullptr);
+  return compute(e, &p, solid_volume, false);
 }
 
 vfe_status vfe_void_fraction(const vfe_engine* e, double* out) {
   if (!e) return null_argument(g_creation_error, "engine");
   auto& error = const_cast<vfe_engine*>(e)->last_error;
   if (!out) return null_argument(error, "out");
-  return on_engine(e, [&] { e->engine->void_fraction(std::span<double>(out, e->engine->cell_count())); });
+  return on_engine(e, [&] { e->backend->void_fraction(std::span<double>(out, e->backend->cell_count())); });
 }
 
 const char* vfe_last_error(const vfe_engine* e) { return e ? e->last_error.c_str() : g_creation_error.c_str(); }
 
 vfe_status vfe_add_shape(vfe_engine* e, const char* spec, int32_t* shape_id) {
   if (!e) return null_argument(g_creation_error, "engine");
-  if (!spec) return null_argument(e->last_error, "spec");
-  if (!shape_id) return null_argument(e->last_error, "shape_id");
   std::int32_t id = -1;
-  const vfe_status s = on_engine(e, [&] { id = e->engine->add_shape(spec); });
+  const vfe_status s = collective(
+      e,
+      [&] {
+        require_pointer(spec, "spec");
+        require_pointer(shape_id, "shape_id");
+      },
+      [&] { id = e->backend->add_shape(spec); });
   if (s == VFE_OK) *shape_id = id;
   return s;
 }
 
 vfe_status vfe_compute_shapes(vfe_engine* e, int64_t n, const double* centres, const double* scales,
                               const double* orientations, const int32_t* shape_ids, double* solid_volume) {
-  if (!e) return null_argument(g_creation_error, "engine");
-  if (!solid_volume) return null_argument(e->last_error, "solid_volume");
-  if (n > 0 && !shape_ids) return null_argument(e->last_error, "shape_ids");
-  return on_engine(e, [&] {
-    vfe::ParticleView view;
-    view.n = n;
-    view.centres = centres;
-    view.radii = scales;
-    view.orientations = orientations;
-    view.shape_ids = shape_ids;
-    e->engine->compute(view, std::span<double>(solid_volume, e->engine->cell_count()));
-  });
+  const vfe_particles p = packed(n, centres, scales, orientations, shape_ids);
+  return compute(e, &p, solid_volume, true);
 }
 
 vfe_status vfe_last_report(const vfe_engine* e, vfe_report* out) {
   if (!e) return null_argument(g_creation_error, "engine");
   if (!out) return null_argument(const_cast<vfe_engine*>(e)->last_error, "out");
-  *out = e->engine->last_report();
+  *out = e->backend->last_report();
   return VFE_OK;
 }
 
@@ -218,7 +325,7 @@ vfe_status vfe_last_report_value(const vfe_engine* e, const char* key, double* o
   if (!key) return null_argument(error, "key");
   if (!out) return null_argument(error, "out");
   double value = 0;
-  const vfe_status s = guarded(error, [&] { value = e->engine->last_report_value(key); });
+  const vfe_status s = guarded(error, [&] { value = e->backend->last_report_value(key); });
   if (s == VFE_OK) *out = value;
   return s;
 }
@@ -245,10 +352,7 @@ vfe_status vfe_create_polymesh_arrays(int64_t n_points, const double* points, in
 }
 
 vfe_status vfe_compute_particles(vfe_engine* e, const vfe_particles* p, double* solid_volume) {
-  if (!e) return null_argument(g_creation_error, "engine");
-  if (!p) return null_argument(e->last_error, "particles");
-  if (!solid_volume) return null_argument(e->last_error, "solid_volume");
-  return on_engine(e, [&] { e->engine->compute(*p, std::span<double>(solid_volume, e->engine->cell_count())); });
+  return compute(e, p, solid_volume, false);
 }
 
 vfe_status vfe_weights_size(const vfe_engine* e, int64_t* n_particles, int64_t* n_entries) {
@@ -257,7 +361,7 @@ vfe_status vfe_weights_size(const vfe_engine* e, int64_t* n_particles, int64_t* 
   if (!n_particles) return null_argument(error, "n_particles");
   if (!n_entries) return null_argument(error, "n_entries");
   vfe::Engine::WeightsSize size;
-  const vfe_status s = on_engine(e, [&] { size = e->engine->weights_size(); });
+  const vfe_status s = on_engine(e, [&] { size = e->backend->weights_size(); });
   if (s == VFE_OK) {
     *n_particles = size.particles;
     *n_entries = size.entries;
@@ -270,45 +374,52 @@ vfe_status vfe_weights(const vfe_engine* e, int64_t* offsets, int64_t* cells, do
   auto& error = const_cast<vfe_engine*>(e)->last_error;
   if (!offsets) return null_argument(error, "offsets");
   return on_engine(e, [&] {
-    const vfe::Engine::WeightsSize size = e->engine->weights_size();
+    const vfe::Engine::WeightsSize size = e->backend->weights_size();
     if (size.entries > 0 && (!cells || !fractions))
       throw vfe::Error(VFE_ERROR_INVALID_ARGUMENT, "cells or fractions is NULL; pass arrays of n_entries values");
-    e->engine->weights(std::span<std::int64_t>(offsets, size.particles + 1), std::span<std::int64_t>(cells, size.entries),
-                       std::span<double>(fractions, size.entries));
+    e->backend->weights(std::span<std::int64_t>(offsets, size.particles + 1),
+                        std::span<std::int64_t>(cells, size.entries), std::span<double>(fractions, size.entries));
   });
 }
 
 vfe_status vfe_deposit(const vfe_engine* e, int32_t components, const double* values, double* out) {
   if (!e) return null_argument(g_creation_error, "engine");
-  auto& error = const_cast<vfe_engine*>(e)->last_error;
-  if (!out) return null_argument(error, "out");
-  return on_engine(e, [&] {
-    const std::int64_t n = e->engine->weights_size().particles;
-    if (n > 0 && !values) throw vfe::Error(VFE_ERROR_INVALID_ARGUMENT, "values is NULL; pass components per particle");
-    if (components < 1 || components > 64)
-      throw vfe::Error(VFE_ERROR_INVALID_ARGUMENT, "components is " + std::to_string(components) + "; give 1 to 64");
-    e->engine->deposit(components, std::span<const double>(values, n * components),
-                       std::span<double>(out, e->engine->cell_count() * components));
-  });
+  std::int64_t n = 0;
+  return collective(
+      e,
+      [&] {
+        require_pointer(out, "out");
+        n = e->backend->weights_size().particles;
+        if (n > 0 && !values) throw vfe::Error(VFE_ERROR_INVALID_ARGUMENT, "values is NULL; pass components per particle");
+        require_components(components);
+      },
+      [&] {
+        e->backend->deposit(components, std::span<const double>(values, n * components),
+                            std::span<double>(out, e->backend->cell_count() * components));
+      });
 }
 
 vfe_status vfe_interpolate(const vfe_engine* e, int32_t components, const double* cell_field, double* out) {
   if (!e) return null_argument(g_creation_error, "engine");
-  auto& error = const_cast<vfe_engine*>(e)->last_error;
-  if (!cell_field) return null_argument(error, "cell_field");
-  return on_engine(e, [&] {
-    const std::int64_t n = e->engine->weights_size().particles;
-    if (n > 0 && !out) throw vfe::Error(VFE_ERROR_INVALID_ARGUMENT, "out is NULL; pass components per particle");
-    if (components < 1 || components > 64)
-      throw vfe::Error(VFE_ERROR_INVALID_ARGUMENT, "components is " + std::to_string(components) + "; give 1 to 64");
-    e->engine->interpolate(components, std::span<const double>(cell_field, e->engine->cell_count() * components),
-                           std::span<double>(out, n * components));
-  });
+  std::int64_t n = 0;
+  return collective(
+      e,
+      [&] {
+        require_pointer(cell_field, "cell_field");
+        n = e->backend->weights_size().particles;
+        if (n > 0 && !out) throw vfe::Error(VFE_ERROR_INVALID_ARGUMENT, "out is NULL; pass components per particle");
+        require_components(components);
+      },
+      [&] {
+        e->backend->interpolate(components,
+                                std::span<const double>(cell_field, e->backend->cell_count() * components),
+                                std::span<double>(out, n * components));
+      });
 }
 
 vfe_status vfe_set_log_callback(vfe_engine* e, vfe_log_fn fn, void* user) {
   if (!e) return null_argument(g_creation_error, "engine");
-  return on_engine(e, [&] { e->engine->set_log_callback(fn, user); });
+  return on_engine(e, [&] { e->backend->set_log_callback(fn, user); });
 }
 
 }  // extern "C"

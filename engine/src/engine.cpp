@@ -1,6 +1,7 @@
 // The engine facade and the dispatch of a compute: validation (particles.cpp), PMM's
 // templates (particle_grid.cpp), the method's driver for the engine's mesh kind
 // (methods/registry.cpp), chosen once per compute, and the accumulator (accumulator.cpp).
+#include <vfe/detail/engine_backend.hpp>
 #include <vfe/engine.hpp>
 
 #include "accumulator.hpp"
@@ -1099,10 +1100,10 @@ void Engine::void_fraction(std::span<double> out) const {
 
 const Report& Engine::last_report() const { return impl_->report; }
 
-double Engine::last_report_value(std::string_view key) const {
-  const Report& r = impl_->report;
-  const std::vector<std::int64_t>* touched = impl_->touched();
-  const std::pair<const char*, double> facts[] = {
+namespace detail {
+
+bool report_field(const Report& r, std::string_view key, double& value) noexcept {
+  const std::pair<std::string_view, double> fields[] = {
       {"particles", double(r.particles)},
       {"fast_path_particles", double(r.fast_path_particles)},
       {"sub_elements", double(r.sub_elements)},
@@ -1113,6 +1114,22 @@ double Engine::last_report_value(std::string_view key) const {
       {"dropped_volume", r.dropped_volume},
       {"outside_particles", double(r.outside_particles)},
       {"clipped_volume", r.clipped_volume},
+  };
+  for (const auto& [name, v] : fields)
+    if (key == name) {
+      value = v;
+      return true;
+    }
+  return false;
+}
+
+}  // namespace detail
+
+double Engine::last_report_value(std::string_view key) const {
+  double field = 0;
+  if (detail::report_field(impl_->report, key, field)) return field;
+  const std::vector<std::int64_t>* touched = impl_->touched();
+  const std::pair<const char*, double> facts[] = {
       {"moved_particles", double(impl_->have_field ? impl_->acc.moved() : 0)},
       {"touched_cells", impl_->have_field && touched ? double(touched->size()) : -1.0},
       {"overfull_cells", double(impl_->overfull_cells)},
@@ -1122,10 +1139,10 @@ double Engine::last_report_value(std::string_view key) const {
       {"lattice_cells", impl_->mesh.lattice() ? double(impl_->mesh.cell_count()) : 0.0},
       {"lattice_particles", double(impl_->have_field ? impl_->lattice_particles : 0)},
   };
-  std::string known;
+  std::string known = "the vfe_report fields";
   for (const auto& [name, value] : facts) {
     if (key == name) return value;
-    known += (known.empty() ? "" : ", ") + std::string(name);
+    known += ", " + std::string(name);
   }
   throw Error(VFE_ERROR_INVALID_ARGUMENT, "unknown report key '" + std::string(key.substr(0, 64)) +
                                               "'; known keys: " + known);

@@ -56,12 +56,12 @@ int main(int argc, char** argv) {
     radii.push_back(radius);
     ids.push_back(i);
   }
-  vfe_mpi_engine* e = nullptr;
+  vfe_engine* e = nullptr;
   if (vfe_mpi_create_cartesian(MPI_COMM_WORLD, origin, spacing, cells.data(), lo, hi, &e) != VFE_OK) {
-    std::fprintf(stderr, "bench_mpi: %s\n", vfe_mpi_last_error(nullptr));
+    std::fprintf(stderr, "bench_mpi: %s\n", vfe_last_error(nullptr));
     MPI_Abort(MPI_COMM_WORLD, 1);
   }
-  std::vector<double> solid(size_t(vfe_mpi_cell_count(e)));
+  std::vector<double> solid(size_t(vfe_cell_count(e)));
   vfe_particles p{};
   p.n = int64_t(radii.size());
   p.centres = centres.data();
@@ -72,9 +72,9 @@ int main(int argc, char** argv) {
                 (long long)cells[0], (long long)cells[1], (long long)cells[2], (long long)particles, periodic.c_str());
   for (const char* method : {"pmm", "exact", "gaussian"}) {
     const std::string options = std::string("method=") + method + " threads=1 periodic=" + periodic;
-    if (vfe_mpi_configure(e, options.c_str()) != VFE_OK ||
-        vfe_mpi_compute_particles(e, &p, solid.data()) != VFE_OK) {  // warm-up: templates, ghost width
-      std::fprintf(stderr, "bench_mpi: %s\n", vfe_mpi_last_error(e));
+    if (vfe_configure(e, options.c_str()) != VFE_OK ||
+        vfe_compute_particles(e, &p, solid.data()) != VFE_OK) {  // warm-up: templates, ghost width
+      std::fprintf(stderr, "bench_mpi: %s\n", vfe_last_error(e));
       MPI_Abort(MPI_COMM_WORLD, 1);
     }
     std::vector<double> times, cpu;
@@ -82,10 +82,10 @@ int main(int argc, char** argv) {
     for (int r = 0; r < repeats; ++r) {
       MPI_Barrier(MPI_COMM_WORLD);
       const double t0 = MPI_Wtime();
-      vfe_mpi_compute_particles(e, &p, solid.data());
+      vfe_compute_particles(e, &p, solid.data());
       double t = MPI_Wtime() - t0, slowest = 0, c = 0, x = 0, c_max = 0, c_sum = 0, x_max = 0;
-      vfe_mpi_last_report_value(e, "local_cpu_seconds", &c);
-      vfe_mpi_last_report_value(e, "exchange_seconds", &x);
+      vfe_last_report_value(e, "local_cpu_seconds", &c);
+      vfe_last_report_value(e, "exchange_seconds", &x);
       MPI_Allreduce(&t, &slowest, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
       MPI_Allreduce(&c, &c_max, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
       MPI_Allreduce(&c, &c_sum, 1, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
@@ -98,10 +98,10 @@ int main(int argc, char** argv) {
     std::sort(cpu.begin(), cpu.end());
     std::sort(times.begin(), times.end());
     double ghost = 0, halo_bytes = 0, neighbours = 0, local_cells = 0;
-    vfe_mpi_last_report_value(e, "ghost_width", &ghost);
-    vfe_mpi_last_report_value(e, "halo_bytes", &halo_bytes);
-    vfe_mpi_last_report_value(e, "neighbours", &neighbours);
-    vfe_mpi_last_report_value(e, "local_cells", &local_cells);
+    vfe_last_report_value(e, "ghost_width", &ghost);
+    vfe_last_report_value(e, "halo_bytes", &halo_bytes);
+    vfe_last_report_value(e, "neighbours", &neighbours);
+    vfe_last_report_value(e, "local_cells", &local_cells);
     double max_halo = 0, sum_halo = 0;
     MPI_Allreduce(&halo_bytes, &max_halo, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
     MPI_Allreduce(&halo_bytes, &sum_halo, 1, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
@@ -114,7 +114,7 @@ int main(int argc, char** argv) {
                   1e3 * cpu_sum, 1e3 * exchange_max, ghost, neighbours, local_cells / double(solid.size()),
                   max_halo, sum_halo, max_halo / owned_bytes);
   }
-  vfe_mpi_destroy(e);
+  vfe_destroy(e);
   MPI_Finalize();
   return 0;
 }

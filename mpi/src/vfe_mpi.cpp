@@ -1,8 +1,11 @@
 // vfe_mpi: an ordinary vfe engine per rank on its block (or processor mesh) plus ghosts, a
 // reverse halo sum of the ghost deposits into their owners, and the C API's promises kept
-// across ranks (every collective call has the same status on every rank).
+// across ranks (every collective call has the same status on every rank). The distributed
+// engine is a backend of libvfe's vfe_engine handle (vfe/detail/engine_backend.hpp), so a
+// host calls vfe.h's functions on it.
 #include <vfe/vfe_mpi.h>
 
+#include <vfe/detail/engine_backend.hpp>
 #include <vfe/engine.hpp>
 
 #include "halo.hpp"
@@ -25,6 +28,8 @@ using vfe::mpi::Decomposition;
 using vfe::mpi::Halo;
 using vfe::mpi::Index3;
 
+namespace {
+
 // A decomposed polyMesh: this rank's cells with their global ids, and the ghost layer the
 // local engine is built on (owned cells first, then ghosts).
 struct DistributedPolyMesh {
@@ -39,7 +44,10 @@ struct DistributedPolyMesh {
   std::int64_t ghost_bytes = 0;
 };
 
-struct vfe_mpi_engine {
+// The engine of one rank: a local vfe::Engine on the owned cells plus ghosts, the halo plan,
+// and the owned-cell field and report of the last compute. Its methods are vfe.h's calls;
+// the collective ones agree on their outcome over comm and throw the same Error everywhere.
+struct DistributedEngine final : vfe::detail::EngineBackend {
   MPI_Comm comm = MPI_COMM_NULL;
   int rank = 0, size = 1;
   std::array<double, 3> origin{}, spacing{};
@@ -52,20 +60,44 @@ struct vfe_mpi_engine {
   bool have_field = false;
   vfe_report report{};
   double local_cpu_seconds = 0, local_seconds = 0, exchange_seconds = 0;  // of the last compute, this rank
-  std::string error;
   vfe_log_fn log_fn = nullptr;
   void* log_user = nullptr;
+
+  /// Duplicates comm (the caller may free its own).
+  explicit DistributedEngine(MPI_Comm c) {
+    MPI_Comm_dup(c, &comm);
+    MPI_Comm_rank(comm, &rank);
+    MPI_Comm_size(comm, &size);
+  }
+  /// Collective (vfe_destroy).
+  ~DistributedEngine() override {
+    local.reset();
+    halo = Halo();
+    MPI_Comm_free(&comm);
+  }
 
   Box block() const { return dec.blocks[static_cast<std::size_t>(rank)]; }
   std::int64_t owned_cells() const { return poly ? poly->mesh.cell_count() : block().count(); }
   double cell_volume(std::size_t c) const {
     return poly ? poly->volumes[c] : spacing[0] * spacing[1] * spacing[2];
   }
+
+  void agree(vfe_status mine, const std::string& message) override;
+  void configure(std::string_view options) override;
+  std::int64_t cell_count() const override { return owned_cells(); }
+  void cell_volumes(std::span<double> out) const override;
+  void compute(const vfe_particles& particles, std::span<double> out) override;
+  void void_fraction(std::span<double> out) const override;
+  std::int32_t add_shape(std::string_view spec) override;
+  vfe::Engine::WeightsSize weights_size() const override { return local->weights_size(); }
+  void weights(std::span<std::int64_t> offsets, std::span<std::int64_t> cells,
+               std::span<double> fractions) const override;
+  void deposit(std::int32_t components, std::span<const double> values, std::span<double> out) override;
+  void interpolate(std::int32_t components, std::span<const double> cell_field, std::span<double> out) override;
+  void set_log_callback(vfe_log_fn fn, void* user) override;
+  const vfe::Report& last_report() const override { return report; }
+  double last_report_value(std::string_view key) const override;
 };
-
-namespace {
-
-thread_local std::string g_create_error;
 
 // CPU time of the calling thread: the local compute's cost, whatever else shares the cores.
 double thread_cpu_seconds() {
@@ -76,7 +108,7 @@ double thread_cpu_seconds() {
 
 // Builds the local engine on the extended block and its halo plan; keeps the options and
 // log callback of the engine it replaces. Collective.
-void rebuild(vfe_mpi_engine& e, const Index3& ghost) {
+void rebuild(DistributedEngine& e, const Index3& ghost) {
   Decomposition dec = e.dec;
   dec.ghost = ghost;
   const Box ext = dec.extended(e.rank);
@@ -96,16 +128,17 @@ void rebuild(vfe_mpi_engine& e, const Index3& ghost) {
   e.extended.assign(static_cast<std::size_t>(ext.count()), 0.0);
 }
 
-// The first failing rank's status and message, on every rank: one allreduce when all
+// The first failing rank's status and message, thrown on every rank as an Error (the
+// message prefixed by that rank's number when there are several): one allreduce when all
 // succeeded, which also takes the maximum over ranks of `maxima` (in place). Collective.
-vfe_status agree(vfe_mpi_engine& e, vfe_status mine, const std::string& message, std::span<double> maxima = {}) {
+void agree(DistributedEngine& e, vfe_status mine, const std::string& message, std::span<double> maxima = {}) {
   std::vector<double> in(1 + maxima.size()), out(in.size());
   in[0] = -double(mine == VFE_OK ? e.size : e.rank);  // the largest is the first failing rank
   std::copy(maxima.begin(), maxima.end(), in.begin() + 1);
   MPI_Allreduce(in.data(), out.data(), int(in.size()), MPI_DOUBLE, MPI_MAX, e.comm);
   std::copy(out.begin() + 1, out.end(), maxima.begin());
   const int first = int(-out[0]);
-  if (first == e.size) return VFE_OK;
+  if (first == e.size) return;
   int status = mine;
   MPI_Bcast(&status, 1, MPI_INT, first, e.comm);
   std::string text = message;
@@ -113,8 +146,7 @@ vfe_status agree(vfe_mpi_engine& e, vfe_status mine, const std::string& message,
   MPI_Bcast(&length, 1, MPI_INT, first, e.comm);
   text.resize(static_cast<std::size_t>(length));
   MPI_Bcast(text.data(), length, MPI_CHAR, first, e.comm);
-  e.error = e.size > 1 ? "rank " + std::to_string(first) + ": " + text : text;
-  return static_cast<vfe_status>(status);
+  throw Error(static_cast<vfe_status>(status), e.size > 1 ? "rank " + std::to_string(first) + ": " + text : text);
 }
 
 // A rank's part of a collective call: its status and message, exceptions caught.
@@ -135,22 +167,13 @@ vfe_status attempt(F&& f, std::string& message) {
   }
 }
 
-// Runs a rank's part of a collective call and agrees on its outcome.
+// Runs a rank's part of a collective call and agrees on its outcome (throws the first
+// failure on every rank).
 template <class F>
-vfe_status collective(vfe_mpi_engine& e, F&& f, std::span<double> maxima = {}) {
+void collective(DistributedEngine& e, F&& f, std::span<double> maxima = {}) {
   std::string message;
   const vfe_status mine = attempt(f, message);
-  return agree(e, mine, message, maxima);
-}
-
-// Runs a rank-local call: errors go to e.error and the status.
-template <class F>
-vfe_status local_call(const vfe_mpi_engine* e, F&& f) {
-  if (!e) return VFE_ERROR_INVALID_ARGUMENT;
-  std::string message;
-  const vfe_status s = attempt(f, message);
-  if (s != VFE_OK) const_cast<vfe_mpi_engine&>(*e).error = message;  // the message is the handle's only mutable state
-  return s;
+  agree(e, mine, message, maxima);
 }
 
 void require(bool ok, const std::string& message) {
@@ -158,7 +181,7 @@ void require(bool ok, const std::string& message) {
 }
 
 // Global cell of a centre under the particle contract: periodic axes wrapped, others clamped.
-Index3 centre_cell(const vfe_mpi_engine& e, const double* x) {
+Index3 centre_cell(const DistributedEngine& e, const double* x) {
   Index3 c{};
   for (int d = 0; d < 3; ++d) {
     const std::int64_t n = e.dec.cells[d];
@@ -174,11 +197,11 @@ Index3 centre_cell(const vfe_mpi_engine& e, const double* x) {
   return c;
 }
 
-int owner_of(const vfe_mpi_engine& e, const Index3& cell);
+int owner_of(const DistributedEngine& e, const Index3& cell);
 
 // Rank owning the cell that holds x: on a polyMesh from the local mesh (-1 when x is in no
 // cell held here), on a grid from the blocks.
-int owner_rank(const vfe_mpi_engine& e, const double* x) {
+int owner_rank(const DistributedEngine& e, const double* x) {
   if (!e.poly) return owner_of(e, centre_cell(e, x));
   std::int64_t cell = -1;
   e.local->locate({x, 3}, {&cell, 1});
@@ -186,7 +209,7 @@ int owner_rank(const vfe_mpi_engine& e, const double* x) {
   return cell < e.owned_cells() ? e.rank : e.poly->ghost_owner[static_cast<std::size_t>(cell - e.owned_cells())];
 }
 
-int owner_of(const vfe_mpi_engine& e, const Index3& cell) {
+int owner_of(const DistributedEngine& e, const Index3& cell) {
   // Blocks tile the grid, so exactly one holds the cell. Linear in the ranks (see
   // docs/scaling.md for when a lookup table would pay).
   for (int q = 0; q < e.size; ++q)
@@ -197,7 +220,7 @@ int owner_of(const vfe_mpi_engine& e, const Index3& cell) {
 // How far beyond a particle's centre (per axis) the footprint of a particle of max_radius
 // reaches under the local engine's method, and how many cells more the method's stencil
 // takes (trilinear's cell centres).
-double footprint_reach(const vfe_mpi_engine& e, double max_radius, double& extra_cells) {
+double footprint_reach(const DistributedEngine& e, double max_radius, double& extra_cells) {
   const std::string method = e.local->option("method");
   double reach = 0;
   extra_cells = 0;
@@ -218,7 +241,7 @@ double footprint_reach(const vfe_mpi_engine& e, double max_radius, double& extra
 
 // The reach per axis in cells, plus one cell so that a deposit never reaches the ghost
 // layer's last cells (checked after compute).
-Index3 ghost_needed(const vfe_mpi_engine& e, double max_radius) {
+Index3 ghost_needed(const DistributedEngine& e, double max_radius) {
   double extra_cells = 0;
   const double reach = footprint_reach(e, max_radius, extra_cells);
   Index3 g{};
@@ -232,7 +255,7 @@ Index3 ghost_needed(const vfe_mpi_engine& e, double max_radius) {
 // and when volume beyond the mesh goes to the nearest cells the cells whose centres can be nearest to a point of it
 // (within sqrt(3) (reach + beyond) + the owning cell's diagonal of the point), plus one
 // cell so that the layer's outer edge stays clear (checked after compute).
-double poly_width_needed(const vfe_mpi_engine& e, double max_radius, double beyond) {
+double poly_width_needed(const DistributedEngine& e, double max_radius, double beyond) {
   double extra_cells = 0;
   double reach = footprint_reach(e, max_radius, extra_cells) + beyond;
   const double h = e.poly->largest_cell;
@@ -245,7 +268,7 @@ double poly_width_needed(const vfe_mpi_engine& e, double max_radius, double beyo
 
 // Sum of |value| over the last ghost layer on each side that faces another block: the
 // margin cell of ghost_needed, which only a footprint wider than assumed can reach.
-double edge_layer_volume(const vfe_mpi_engine& e) {
+double edge_layer_volume(const DistributedEngine& e) {
   if (e.poly) {
     double sum = 0;
     for (const std::int64_t c : e.poly->rim) sum += std::abs(e.extended[static_cast<std::size_t>(c)]);
@@ -275,7 +298,7 @@ double edge_layer_volume(const vfe_mpi_engine& e) {
 
 // Copies the owned cells between an extended-block field and an owned-cell field (k values
 // per cell): to_owned reads extended, else writes it.
-void copy_owned(const vfe_mpi_engine& e, bool to_owned, double* extended, double* owned, int k) {
+void copy_owned(const DistributedEngine& e, bool to_owned, double* extended, double* owned, int k) {
   if (e.poly) {  // owned cells come first
     const std::size_t n = static_cast<std::size_t>(e.owned_cells() * k);
     if (to_owned)
@@ -312,7 +335,7 @@ std::string describe(const Index3& c) {
 // The rank's particles checked against the contract; returns the largest radius and, when
 // a centre lies outside the grid on a periodic axis, fills wrapped with every centre wrapped
 // into the grid (as the serial engine wraps them).
-double check_particles(const vfe_mpi_engine& e, const vfe_particles& p, std::vector<double>& wrapped) {
+double check_particles(const DistributedEngine& e, const vfe_particles& p, std::vector<double>& wrapped) {
   double max_radius = 0;
   bool wrap = false;
   for (std::int64_t i = 0; i < p.n; ++i) {
@@ -353,7 +376,7 @@ double check_particles(const vfe_mpi_engine& e, const vfe_particles& p, std::vec
 // The report over all ranks: the local reports' sums, particle grid sizes over the ranks
 // with particles (grid_extremes: max and -min, already reduced), deposited and clipped volume
 // of the owned fields. Returns how many ranks failed the halo sum (in the same allreduce).
-int gather_report(vfe_mpi_engine& e, bool halo_failed, const double grid_extremes[2]) {
+int gather_report(DistributedEngine& e, bool halo_failed, const double grid_extremes[2]) {
   const vfe_report r = e.local->last_report();
   const double alpha_min = std::stod(e.local->option("alpha_min"));
   double deposited = 0, clipped = 0;
@@ -383,7 +406,7 @@ int gather_report(vfe_mpi_engine& e, bool halo_failed, const double grid_extreme
 
 // Builds the local engine on the owned cells and a ghost layer of the given width, and its
 // halo plan; keeps the options and log callback of the engine it replaces. Collective.
-void rebuild_poly(vfe_mpi_engine& e, double width) {
+void rebuild_poly(DistributedEngine& e, double width) {
   DistributedPolyMesh& p = *e.poly;
   vfe::mpi::GhostedPolyMesh g = vfe::mpi::build_ghosted(e.comm, p.mesh, p.boxes, width);
   Halo halo(e.comm, std::move(g.peers));  // collective: before anything that may fail on one rank
@@ -401,7 +424,7 @@ void rebuild_poly(vfe_mpi_engine& e, double width) {
 }
 
 // The local cells holding the rank's particles' centres (-1 in none).
-std::vector<std::int64_t> locate_centres(const vfe_mpi_engine& e, const vfe_particles& p) {
+std::vector<std::int64_t> locate_centres(const DistributedEngine& e, const vfe_particles& p) {
   std::vector<double> x(static_cast<std::size_t>(3 * p.n));
   for (std::int64_t i = 0; i < p.n; ++i) std::copy_n(at(p.centres, p.centres_stride, 3, i), 3, &x[static_cast<std::size_t>(3 * i)]);
   std::vector<std::int64_t> cells(static_cast<std::size_t>(p.n));
@@ -424,7 +447,7 @@ std::string wrong_rank(const vfe_particles& p, std::int64_t i, const std::string
 // A polyMesh rank's particles checked against the contract: a centre in a ghost cell
 // fails (naming the owner); centres in no cell held here go to `unlocated` for
 // place_outside_centres. Returns the largest radius.
-double check_poly_particles(const vfe_mpi_engine& e, const vfe_particles& p, std::vector<std::int64_t>& unlocated) {
+double check_poly_particles(const DistributedEngine& e, const vfe_particles& p, std::vector<std::int64_t>& unlocated) {
   double max_radius = 0;
   for (std::int64_t i = 0; i < p.n; ++i) {
     const double r = *at(p.radii, p.radii_stride, 1, i);
@@ -452,7 +475,7 @@ double check_poly_particles(const vfe_mpi_engine& e, const vfe_particles& p, std
 // centre is nearest (the serial engine's rule for outside=nearest). Also returns, on every
 // rank, how far outside the mesh the farthest of all these centres lies (its distance to
 // that nearest cell centre; 0 when all are inside).
-std::vector<int> owners_of_unplaced(const vfe_mpi_engine& e, const std::vector<double>& x, double& beyond) {
+std::vector<int> owners_of_unplaced(const DistributedEngine& e, const std::vector<double>& x, double& beyond) {
   const int count = static_cast<int>(x.size());
   std::vector<int> counts(static_cast<std::size_t>(e.size)), displs(static_cast<std::size_t>(e.size), 0);
   MPI_Allgather(&count, 1, MPI_INT, counts.data(), 1, MPI_INT, e.comm);
@@ -496,7 +519,7 @@ std::vector<int> owners_of_unplaced(const vfe_mpi_engine& e, const std::vector<d
 
 // Collective. The rank's particles whose centres lie in no cell held here (`mine`) must
 // belong to it by owners_of_unplaced's rule; returns its `beyond`.
-double place_outside_centres(const vfe_mpi_engine& e, const vfe_particles& p, const std::vector<std::int64_t>& mine) {
+double place_outside_centres(const DistributedEngine& e, const vfe_particles& p, const std::vector<std::int64_t>& mine) {
   std::vector<double> x;
   for (const std::int64_t i : mine) x.insert(x.end(), at(p.centres, p.centres_stride, 3, i), at(p.centres, p.centres_stride, 3, i) + 3);
   double beyond = 0;
@@ -509,110 +532,100 @@ double place_outside_centres(const vfe_mpi_engine& e, const vfe_particles& p, co
   return beyond;
 }
 
+}  // namespace
+
 // One compute: three small allreduces (contract and largest radius; the local computes'
 // outcome and grid sizes; the report) and one neighbour exchange, plus a rebuild of the
 // ghost layer when a footprint needs a wider one.
-vfe_status compute(vfe_mpi_engine* e, const vfe_particles* p, double* out) {
-  if (!e) return VFE_ERROR_INVALID_ARGUMENT;
+void DistributedEngine::compute(const vfe_particles& p, std::span<double> out) {
   std::vector<double> wrapped;
   std::vector<std::int64_t> unlocated;  // a polyMesh's particles whose centres lie in no cell held here
   double max_radius = 0, maxima[2] = {0, 0};
-  vfe_status s = collective(
-      *e,
+  collective(
+      *this,
       [&] {
-        require(p != nullptr, "vfe_mpi_compute_particles: particles is NULL");
-        require(p->n >= 0, "vfe_mpi_compute: n must be >= 0");
-        require(out != nullptr || e->owned_cells() == 0, "vfe_mpi_compute: solid_volume is NULL; pass owned-cell storage");
-        require(p->n == 0 || (p->centres && p->radii), "vfe_mpi_compute: centres and radii must not be NULL");
-        if (p->shape_ids) throw Error(VFE_ERROR_UNSUPPORTED, "vfe_mpi computes spheres only: pass shape_ids = NULL");
-        if (!p->ids && p->n > 0 && e->local->option("method") == "pmm" && e->local->option("orientation") == "random")
+        require(p.n >= 0, "n must be >= 0");
+        require(p.n == 0 || (p.centres && p.radii), "centres and radii must not be NULL");
+        if (p.shape_ids)
+          throw Error(VFE_ERROR_UNSUPPORTED,
+                      "a distributed engine computes spheres only: use vfe_compute or vfe_compute_particles with "
+                      "shape_ids = NULL");
+        if (!p.ids && p.n > 0 && local->option("method") == "pmm" && local->option("orientation") == "random")
           throw Error(VFE_ERROR_INVALID_ARGUMENT,
                       "method=pmm with orientation=random rotates each particle by its id, which must not depend on "
-                      "the rank: pass the particle ids (vfe_particles.ids, vfe_mpi_compute_particles)");
-        if (e->poly) {
-          max_radius = check_poly_particles(*e, *p, unlocated);
+                      "the rank: pass the particle ids (vfe_particles.ids, vfe_compute_particles)");
+        if (poly) {
+          max_radius = check_poly_particles(*this, p, unlocated);
           maxima[1] = double(unlocated.size());
         } else {
-          max_radius = check_particles(*e, *p, wrapped);
+          max_radius = check_particles(*this, p, wrapped);
         }
         maxima[0] = max_radius;
       },
       maxima);
-  if (s != VFE_OK) return s;
   max_radius = maxima[0];
-  if (e->poly) {
-    double beyond = 0;
-    if (maxima[1] > 0) {  // some centres lie in no cell this rank holds
-      s = collective(*e, [&] { beyond = place_outside_centres(*e, *p, unlocated); });
-      if (s != VFE_OK) return s;
-    }
-    double width = 0;
-    s = local_call(e, [&] { width = poly_width_needed(*e, max_radius, beyond); });
-    if (s != VFE_OK) return s;
-    if (width > e->poly->width) {
-      s = collective(*e, [&] { rebuild_poly(*e, width); });
-      if (s != VFE_OK) return s;
-    }
-  }
   // Every rank has the same largest radius and options, so all decide alike.
-  Index3 need{};
-  if (!e->poly) s = local_call(e, [&] { need = ghost_needed(*e, max_radius); });
-  if (s != VFE_OK) return s;
-  if (!e->poly && (need[0] > e->dec.ghost[0] || need[1] > e->dec.ghost[1] || need[2] > e->dec.ghost[2])) {
-    s = collective(*e, [&] {
-      rebuild(*e, {std::max(need[0], e->dec.ghost[0]), std::max(need[1], e->dec.ghost[1]),
-                   std::max(need[2], e->dec.ghost[2])});
-    });
-    if (s != VFE_OK) return s;
+  if (poly) {
+    double beyond = 0;
+    if (maxima[1] > 0)  // some centres lie in no cell this rank holds
+      collective(*this, [&] { beyond = place_outside_centres(*this, p, unlocated); });
+    const double width = poly_width_needed(*this, max_radius, beyond);
+    if (width > poly->width) collective(*this, [&] { rebuild_poly(*this, width); });
+  } else {
+    const Index3 need = ghost_needed(*this, max_radius);
+    if (need[0] > dec.ghost[0] || need[1] > dec.ghost[1] || need[2] > dec.ghost[2])
+      collective(*this, [&] {
+        rebuild(*this, {std::max(need[0], dec.ghost[0]), std::max(need[1], dec.ghost[1]),
+                        std::max(need[2], dec.ghost[2])});
+      });
   }
   double grid_extremes[2] = {0, -std::numeric_limits<double>::max()};
-  s = collective(
-      *e,
+  collective(
+      *this,
       [&] {
-        vfe_particles local = *p;
+        vfe_particles mine = p;
         if (!wrapped.empty()) {
-          local.centres = wrapped.data();
-          local.centres_stride = 0;
+          mine.centres = wrapped.data();
+          mine.centres_stride = 0;
         }
         const double wall0 = MPI_Wtime(), cpu0 = thread_cpu_seconds();
-        e->local->compute(local, e->extended);
-        e->local_cpu_seconds = thread_cpu_seconds() - cpu0;
-        e->local_seconds = MPI_Wtime() - wall0;
-        if (edge_layer_volume(*e) != 0)
+        local->compute(mine, extended);
+        local_cpu_seconds = thread_cpu_seconds() - cpu0;
+        local_seconds = MPI_Wtime() - wall0;
+        if (edge_layer_volume(*this) != 0)
           throw Error(VFE_ERROR_INTERNAL,
                       "a deposit reached the outer ghost layer, so the ghost layer was narrower than a footprint: "
                       "please report this with the options used");
-        const vfe_report& r = e->local->last_report();
+        const vfe_report& r = local->last_report();
         if (r.particles > 0) {
           grid_extremes[0] = double(r.particle_grid_max);
           grid_extremes[1] = -double(r.particle_grid_min);
         }
       },
       grid_extremes);
-  if (s != VFE_OK) return s;
   const double exchange0 = MPI_Wtime();
   std::string message;
-  const vfe_status halo = attempt(
+  const vfe_status halo_sum = attempt(
       [&] {
-        std::vector<double> owned(static_cast<std::size_t>(e->owned_cells()));
-        copy_owned(*e, true, e->extended.data(), owned.data(), 1);
-        e->halo.reverse_sum(e->extended, owned, 1);
-        e->solid = std::move(owned);
+        std::vector<double> owned(static_cast<std::size_t>(owned_cells()));
+        copy_owned(*this, true, extended.data(), owned.data(), 1);
+        halo.reverse_sum(extended, owned, 1);
+        solid = std::move(owned);
       },
       message);
-  const int halo_failures = gather_report(*e, halo != VFE_OK, grid_extremes);
-  e->exchange_seconds = MPI_Wtime() - exchange0;
+  const int halo_failures = gather_report(*this, halo_sum != VFE_OK, grid_extremes);
+  exchange_seconds = MPI_Wtime() - exchange0;
   if (halo_failures > 0) {
-    e->have_field = false;
-    e->error = halo != VFE_OK ? message : "the halo sum failed on another rank";
-    return VFE_ERROR_INTERNAL;
+    have_field = false;
+    throw Error(VFE_ERROR_INTERNAL, halo_sum != VFE_OK ? message : "the halo sum failed on another rank");
   }
-  e->have_field = true;
-  if (e->owned_cells() > 0) std::copy(e->solid.begin(), e->solid.end(), out);
-  return VFE_OK;
+  have_field = true;
+  std::copy(solid.begin(), solid.end(), out.begin());
 }
 
-void check_blocks(const vfe_mpi_engine& e) {
+namespace {
+
+void check_blocks(const DistributedEngine& e) {
   for (int d = 0; d < 3; ++d) {
     require(std::isfinite(e.origin[d]), "origin must be finite");
     require(std::isfinite(e.spacing[d]) && e.spacing[d] > 0, "spacing must be finite and > 0 on every axis");
@@ -637,7 +650,7 @@ void check_blocks(const vfe_mpi_engine& e) {
 }
 
 // Splits off periodic= (the global grid's, handled here) from the options for the local engine.
-std::string take_periodic(const char* options, std::array<bool, 3>& periodic, bool& given) {
+std::string take_periodic(const std::string& options, std::array<bool, 3>& periodic, bool& given) {
   std::istringstream in(options);
   std::string token, rest;
   given = false;
@@ -660,108 +673,210 @@ std::string take_periodic(const char* options, std::array<bool, 3>& periodic, bo
   return rest;
 }
 
-}  // namespace
-
-namespace {
+// The distributed engine behind a handle, or an Error naming the caller when e is
+// libvfe's own engine.
+const DistributedEngine& distributed(const vfe::detail::EngineBackend* backend, const char* caller) {
+  const auto* d = dynamic_cast<const DistributedEngine*>(backend);
+  if (!d)
+    throw Error(VFE_ERROR_INVALID_ARGUMENT,
+                std::string(caller) + ": the engine is not distributed; pass an engine made by vfe_mpi_create_cartesian, "
+                                      "vfe_mpi_create_polymesh or vfe_mpi_create_polymesh_arrays");
+  return *d;
+}
 
 // Creates a polyMesh engine from the rank's cells that load() gives (run on every rank;
 // its failure on one rank fails the call everywhere).
 template <class Load>
-vfe_status create_polymesh(MPI_Comm comm, vfe_mpi_engine** out, const char* caller, Load&& load) {
-  if (comm == MPI_COMM_NULL) {
-    g_create_error = std::string(caller) + ": comm is MPI_COMM_NULL";
-    return VFE_ERROR_INVALID_ARGUMENT;
-  }
-  auto e = std::make_unique<vfe_mpi_engine>();
-  MPI_Comm_dup(comm, &e->comm);
-  MPI_Comm_rank(e->comm, &e->rank);
-  MPI_Comm_size(e->comm, &e->size);
-  e->poly = std::make_unique<DistributedPolyMesh>();
-  double largest = 0;
-  vfe_status s = collective(
-      *e,
-      [&] {
-        require(out != nullptr, std::string(caller) + ": out is NULL");
-        DistributedPolyMesh& p = *e->poly;
-        load(p.mesh);
-        vfe::mpi::check_rank_mesh(p.mesh);
-        p.boxes = vfe::mpi::cell_boxes(p.mesh);
-        for (std::size_t c = 0; c < p.boxes.size() / 6; ++c)
-          for (int d = 0; d < 3; ++d) largest = std::max(largest, p.boxes[6 * c + 3 + d] - p.boxes[6 * c + d]);
-        const vfe::Engine owned(p.mesh.mesh.view());  // validates the rank's mesh and gives its volumes
-        p.volumes.resize(static_cast<std::size_t>(owned.cell_count()));
-        owned.cell_volumes(p.volumes);
+vfe_status create_polymesh(MPI_Comm comm, vfe_engine** out, const char* caller, Load&& load) {
+  return vfe::detail::create_engine(
+      [&]() -> std::unique_ptr<vfe::detail::EngineBackend> {
+        require(comm != MPI_COMM_NULL, std::string(caller) + ": comm is MPI_COMM_NULL");
+        auto e = std::make_unique<DistributedEngine>(comm);
+        e->poly = std::make_unique<DistributedPolyMesh>();
+        double largest = 0;
+        collective(
+            *e,
+            [&] {
+              require(out != nullptr, std::string(caller) + ": out is NULL");
+              DistributedPolyMesh& p = *e->poly;
+              load(p.mesh);
+              vfe::mpi::check_rank_mesh(p.mesh);
+              p.boxes = vfe::mpi::cell_boxes(p.mesh);
+              for (std::size_t c = 0; c < p.boxes.size() / 6; ++c)
+                for (int d = 0; d < 3; ++d) largest = std::max(largest, p.boxes[6 * c + 3 + d] - p.boxes[6 * c + d]);
+              const vfe::Engine owned(p.mesh.mesh.view());  // validates the rank's mesh and gives its volumes
+              p.volumes.resize(static_cast<std::size_t>(owned.cell_count()));
+              owned.cell_volumes(p.volumes);
+            },
+            {&largest, 1});
+        e->poly->largest_cell = largest;
+        collective(*e, [&] { rebuild_poly(*e, 1.01 * largest); });
+        return e;
       },
-      {&largest, 1});
-  if (s == VFE_OK) {
-    e->poly->largest_cell = largest;
-    s = collective(*e, [&] { rebuild_poly(*e, 1.01 * largest); });
-  }
-  if (s == VFE_OK) {
-    *out = e.release();
-    return VFE_OK;
-  }
-  g_create_error = e->error;
-  MPI_Comm_free(&e->comm);
-  return s;
+      out);
 }
 
 }  // namespace
+
+void DistributedEngine::agree(vfe_status mine, const std::string& message) { ::agree(*this, mine, message); }
+
+void DistributedEngine::configure(std::string_view options) {
+  std::array<bool, 3> periodic = dec.periodic;
+  bool periodic_given = false;
+  std::string rest;
+  collective(*this, [&] {
+    // On a polyMesh periodic= goes to the local engine, which refuses it.
+    rest = poly ? std::string(options) : take_periodic(std::string(options), periodic, periodic_given);
+    // Checked on a scratch engine first, so a refused option string changes nothing.
+    vfe::Engine scratch(vfe::CartesianGridSpec{});
+    scratch.configure(local->options());
+    scratch.configure(rest);
+    // The engine's smoothing is an implicit diffusion over the whole mesh: no ghost layer
+    // reaches as far, so it would need a distributed solve.
+    if (std::stod(scratch.option("smoothing_length")) != 0)
+      throw Error(VFE_ERROR_UNSUPPORTED,
+                  "smoothing_length: the smoothing solves a diffusion over the whole mesh, which a distributed engine "
+                  "does not do across ranks; set smoothing_length=0 and smooth on the host's decomposed mesh");
+  });
+  collective(*this, [&] {
+    local->configure(rest);
+    if (periodic_given && periodic != dec.periodic) {
+      dec.periodic = periodic;
+      rebuild(*this, dec.ghost);
+    }
+    have_field = false;
+  });
+}
+
+void DistributedEngine::cell_volumes(std::span<double> out) const {
+  for (std::int64_t c = 0; c < owned_cells(); ++c) out[c] = cell_volume(static_cast<std::size_t>(c));
+}
+
+void DistributedEngine::void_fraction(std::span<double> out) const {
+  require(have_field, "no compute since creation or the last configure; compute first");
+  const double alpha_min = std::stod(local->option("alpha_min"));
+  for (std::size_t c = 0; c < solid.size(); ++c) {
+    const double eps = 1.0 - solid[c] / cell_volume(c);
+    out[c] = alpha_min > 0 && eps < alpha_min ? alpha_min : eps;
+  }
+}
+
+std::int32_t DistributedEngine::add_shape(std::string_view) {
+  throw Error(VFE_ERROR_UNSUPPORTED,
+              "a distributed engine computes spheres only (its ghost layer is sized by radii); use one vfe engine "
+              "per rank on the whole mesh for shapes");
+}
+
+void DistributedEngine::weights(std::span<std::int64_t> offsets, std::span<std::int64_t> cells,
+                                std::span<double> fractions) const {
+  local->weights(offsets, cells, fractions);
+  if (poly) {
+    for (std::int64_t& cell : cells) cell = poly->cell_ids[static_cast<std::size_t>(cell)];
+    return;
+  }
+  const Box ext = dec.extended(rank);
+  const Index3 n = ext.extent(), g = dec.cells;
+  for (std::int64_t& cell : cells) {
+    Index3 ijk{cell % n[0], (cell / n[0]) % n[1], cell / (n[0] * n[1])};
+    for (int d = 0; d < 3; ++d) ijk[d] = (((ijk[d] + ext.lo[d]) % g[d]) + g[d]) % g[d];
+    cell = ijk[0] + g[0] * (ijk[1] + g[1] * ijk[2]);
+  }
+}
+
+void DistributedEngine::deposit(std::int32_t components, std::span<const double> values, std::span<double> out) {
+  std::vector<double> owned;
+  collective(*this, [&] {
+    std::vector<double> ext(extended.size() * static_cast<std::size_t>(components));
+    local->deposit(components, values, ext);
+    owned.resize(static_cast<std::size_t>(owned_cells() * components));
+    copy_owned(*this, true, ext.data(), owned.data(), components);
+    halo.reverse_sum(ext, owned, components);
+  });
+  std::copy(owned.begin(), owned.end(), out.begin());
+}
+
+void DistributedEngine::interpolate(std::int32_t components, std::span<const double> cell_field,
+                                    std::span<double> out) {
+  std::vector<double> result;
+  collective(*this, [&] {
+    std::vector<double> ext(extended.size() * static_cast<std::size_t>(components), 0.0);
+    copy_owned(*this, false, ext.data(), const_cast<double*>(cell_field.data()), components);  // reads cell_field
+    halo.forward_fill(cell_field, ext, components);
+    result.resize(out.size());
+    local->interpolate(components, ext, result);
+  });
+  std::copy(result.begin(), result.end(), out.begin());
+}
+
+void DistributedEngine::set_log_callback(vfe_log_fn fn, void* user) {
+  local->set_log_callback(fn, user);
+  log_fn = fn;
+  log_user = user;
+}
+
+double DistributedEngine::last_report_value(std::string_view key) const {
+  double field = 0;
+  if (vfe::detail::report_field(report, key, field)) return field;  // over all ranks
+  const std::int64_t halo_values = halo.ghost_cells_sent();
+  const std::pair<std::string_view, double> facts[] = {  // this rank's
+      {"ghost_width", poly ? poly->width : double(*std::max_element(dec.ghost.begin(), dec.ghost.end()))},
+      {"ghost_bytes", poly ? double(poly->ghost_bytes) : 0.0},
+      {"neighbours", double(halo.peers().size())},
+      {"local_cells", double(extended.size())},
+      {"halo_values", double(halo_values)},
+      {"halo_bytes", double(halo_values) * double(sizeof(double))},
+      {"local_seconds", local_seconds},
+      {"local_cpu_seconds", local_cpu_seconds},
+      {"exchange_seconds", exchange_seconds},
+  };
+  for (const auto& [name, value] : facts)
+    if (name == key) return value;
+  throw Error(VFE_ERROR_INVALID_ARGUMENT, "unknown report key '" + std::string(key.substr(0, 64)) +
+                                              "' for a distributed engine; see vfe_mpi.h for its keys");
+}
 
 extern "C" {
 
 vfe_status vfe_mpi_create_cartesian(MPI_Comm comm, const double origin[3], const double spacing[3],
                                     const int64_t global_cells[3], const int64_t block_lo[3],
-                                    const int64_t block_hi[3], vfe_mpi_engine** out) {
-  // Arguments are checked after the blocks are gathered, so that every rank fails alike.
-  auto e = std::make_unique<vfe_mpi_engine>();
-  if (comm == MPI_COMM_NULL) {
-    g_create_error = "vfe_mpi_create_cartesian: comm is MPI_COMM_NULL";
-    return VFE_ERROR_INVALID_ARGUMENT;
-  }
-  MPI_Comm_dup(comm, &e->comm);
-  MPI_Comm_rank(e->comm, &e->rank);
-  MPI_Comm_size(e->comm, &e->size);
-  const bool given = origin && spacing && global_cells && block_lo && block_hi && out;
-  std::int64_t mine[6] = {0, 0, 0, 0, 0, 0};
-  if (given)
-    for (int d = 0; d < 3; ++d) {
-      mine[d] = block_lo[d];
-      mine[3 + d] = block_hi[d];
-    }
-  std::vector<std::int64_t> all(static_cast<std::size_t>(6 * e->size));
-  MPI_Allgather(mine, 6, MPI_INT64_T, all.data(), 6, MPI_INT64_T, e->comm);
-  const vfe_status s = collective(*e, [&] {
-    require(given, "vfe_mpi_create_cartesian: origin, spacing, global_cells, block_lo, block_hi and out must not be NULL");
-    for (int d = 0; d < 3; ++d) {
-      e->origin[d] = origin[d];
-      e->spacing[d] = spacing[d];
-      e->dec.cells[d] = global_cells[d];
-    }
-    e->dec.blocks.resize(static_cast<std::size_t>(e->size));
-    for (int q = 0; q < e->size; ++q)
-      for (int d = 0; d < 3; ++d) {
-        e->dec.blocks[static_cast<std::size_t>(q)].lo[d] = all[static_cast<std::size_t>(6 * q + d)];
-        e->dec.blocks[static_cast<std::size_t>(q)].hi[d] = all[static_cast<std::size_t>(6 * q + 3 + d)];
-      }
-    check_blocks(*e);
-  });
-  if (s == VFE_OK) {
-    const vfe_status built = collective(*e, [&] { rebuild(*e, {1, 1, 1}); });
-    if (built == VFE_OK) {
-      *out = e.release();
-      return VFE_OK;
-    }
-    g_create_error = e->error;
-    MPI_Comm_free(&e->comm);
-    return built;
-  }
-  g_create_error = e->error;
-  MPI_Comm_free(&e->comm);
-  return s;
+                                    const int64_t block_hi[3], vfe_engine** out) {
+  return vfe::detail::create_engine(
+      [&]() -> std::unique_ptr<vfe::detail::EngineBackend> {
+        require(comm != MPI_COMM_NULL, "vfe_mpi_create_cartesian: comm is MPI_COMM_NULL");
+        auto e = std::make_unique<DistributedEngine>(comm);
+        // Arguments are checked after the blocks are gathered, so that every rank fails alike.
+        const bool given = origin && spacing && global_cells && block_lo && block_hi && out;
+        std::int64_t mine[6] = {0, 0, 0, 0, 0, 0};
+        if (given)
+          for (int d = 0; d < 3; ++d) {
+            mine[d] = block_lo[d];
+            mine[3 + d] = block_hi[d];
+          }
+        std::vector<std::int64_t> all(static_cast<std::size_t>(6 * e->size));
+        MPI_Allgather(mine, 6, MPI_INT64_T, all.data(), 6, MPI_INT64_T, e->comm);
+        collective(*e, [&] {
+          require(given,
+                  "vfe_mpi_create_cartesian: origin, spacing, global_cells, block_lo, block_hi and out must not be NULL");
+          for (int d = 0; d < 3; ++d) {
+            e->origin[d] = origin[d];
+            e->spacing[d] = spacing[d];
+            e->dec.cells[d] = global_cells[d];
+          }
+          e->dec.blocks.resize(static_cast<std::size_t>(e->size));
+          for (int q = 0; q < e->size; ++q)
+            for (int d = 0; d < 3; ++d) {
+              e->dec.blocks[static_cast<std::size_t>(q)].lo[d] = all[static_cast<std::size_t>(6 * q + d)];
+              e->dec.blocks[static_cast<std::size_t>(q)].hi[d] = all[static_cast<std::size_t>(6 * q + 3 + d)];
+            }
+          check_blocks(*e);
+        });
+        collective(*e, [&] { rebuild(*e, {1, 1, 1}); });
+        return e;
+      },
+      out);
 }
 
-vfe_status vfe_mpi_create_polymesh(MPI_Comm comm, const char* processor_dir, vfe_mpi_engine** out) {
+vfe_status vfe_mpi_create_polymesh(MPI_Comm comm, const char* processor_dir, vfe_engine** out) {
   int size = 1;
   if (comm != MPI_COMM_NULL) MPI_Comm_size(comm, &size);
   return create_polymesh(comm, out, "vfe_mpi_create_polymesh", [&](vfe::mpi::RankPolyMesh& m) {
@@ -799,7 +914,7 @@ vfe_status vfe_mpi_create_polymesh(MPI_Comm comm, const char* processor_dir, vfe
   });
 }
 
-vfe_status vfe_mpi_create_polymesh_arrays(MPI_Comm comm, const vfe_mpi_polymesh* mesh, vfe_mpi_engine** out) {
+vfe_status vfe_mpi_create_polymesh_arrays(MPI_Comm comm, const vfe_mpi_polymesh* mesh, vfe_engine** out) {
   return create_polymesh(comm, out, "vfe_mpi_create_polymesh_arrays", [&](vfe::mpi::RankPolyMesh& m) {
     require(mesh != nullptr, "vfe_mpi_create_polymesh_arrays: mesh is NULL");
     const vfe_mpi_polymesh& a = *mesh;
@@ -836,224 +951,28 @@ vfe_status vfe_mpi_create_polymesh_arrays(MPI_Comm comm, const vfe_mpi_polymesh*
   });
 }
 
-void vfe_mpi_destroy(vfe_mpi_engine* e) {
-  if (!e) return;
-  e->local.reset();
-  e->halo = Halo();
-  if (e->comm != MPI_COMM_NULL) MPI_Comm_free(&e->comm);
-  delete e;
-}
-
-vfe_status vfe_mpi_configure(vfe_mpi_engine* e, const char* options) {
-  if (!e) return VFE_ERROR_INVALID_ARGUMENT;
-  std::array<bool, 3> periodic = e->dec.periodic;
-  bool periodic_given = false;
-  std::string rest;
-  vfe_status s = collective(*e, [&] {
-    require(options != nullptr, "vfe_mpi_configure: options is NULL");
-    // On a polyMesh periodic= goes to the local engine, which refuses it.
-    rest = e->poly ? std::string(options) : take_periodic(options, periodic, periodic_given);
-    // Checked on a scratch engine first, so a refused option string changes nothing.
-    vfe::Engine scratch(vfe::CartesianGridSpec{});
-    scratch.configure(e->local->options());
-    scratch.configure(rest);
-    // The engine's smoothing is an implicit diffusion over the whole mesh: no ghost layer
-    // reaches as far, so it would need a distributed solve.
-    if (std::stod(scratch.option("smoothing_length")) != 0)
-      throw Error(VFE_ERROR_UNSUPPORTED,
-                  "smoothing_length: the smoothing solves a diffusion over the whole mesh, which vfe_mpi does not "
-                  "do across ranks; set smoothing_length=0 and smooth on the host's decomposed mesh");
-  });
-  if (s != VFE_OK) return s;
-  return collective(*e, [&] {
-    e->local->configure(rest);
-    if (periodic_given && periodic != e->dec.periodic) {
-      e->dec.periodic = periodic;
-      rebuild(*e, e->dec.ghost);
-    }
-    e->have_field = false;
-  });
-}
-
-int64_t vfe_mpi_cell_count(const vfe_mpi_engine* e) { return e ? e->owned_cells() : -1; }
-
-vfe_status vfe_mpi_cell_volumes(const vfe_mpi_engine* e, double* out) {
-  return local_call(e, [&] {
-    require(out != nullptr, "vfe_mpi_cell_volumes: out is NULL");
-    for (std::int64_t c = 0; c < e->owned_cells(); ++c) out[c] = e->cell_volume(static_cast<std::size_t>(c));
-  });
-}
-
-vfe_status vfe_mpi_owner(const vfe_mpi_engine* e, const double centre[3], int* rank) {
-  return local_call(e, [&] {
+vfe_status vfe_mpi_owner(const vfe_engine* e, const double centre[3], int* rank) {
+  return vfe::detail::with_backend(e, [&](const vfe::detail::EngineBackend* backend) {
+    const DistributedEngine& d = distributed(backend, "vfe_mpi_owner");
     require(centre && rank, "vfe_mpi_owner: centre and rank must not be NULL");
     require(std::isfinite(centre[0]) && std::isfinite(centre[1]) && std::isfinite(centre[2]),
             "vfe_mpi_owner: the centre must be finite");
-    *rank = owner_rank(*e, centre);
-    require(*rank >= 0, "vfe_mpi_owner: the centre lies in no cell this rank owns or holds as a ghost; on a polyMesh "
+    const int owner = owner_rank(d, centre);
+    require(owner >= 0, "vfe_mpi_owner: the centre lies in no cell this rank owns or holds as a ghost; on a polyMesh "
                         "a rank knows its own cells and its ghost layer only (vfe_mpi_route_particles finds any owner)");
+    *rank = owner;
   });
 }
 
-vfe_status vfe_mpi_compute(vfe_mpi_engine* e, int64_t n, const double* centres, const double* radii,
-                           const double* orientations, double* solid_volume) {
-  vfe_particles p{};
-  p.n = n;
-  p.centres = centres;
-  p.radii = radii;
-  p.orientations = orientations;
-  return compute(e, &p, solid_volume);
-}
-
-vfe_status vfe_mpi_compute_particles(vfe_mpi_engine* e, const vfe_particles* p, double* solid_volume) {
-  return compute(e, p, solid_volume);
-}
-
-vfe_status vfe_mpi_void_fraction(const vfe_mpi_engine* e, double* out) {
-  return local_call(e, [&] {
-    require(out != nullptr, "vfe_mpi_void_fraction: out is NULL");
-    require(e->have_field, "vfe_mpi_void_fraction: no compute since creation or the last configure; compute first");
-    const double alpha_min = std::stod(e->local->option("alpha_min"));
-    for (std::size_t c = 0; c < e->solid.size(); ++c) {
-      const double eps = 1.0 - e->solid[c] / e->cell_volume(c);
-      out[c] = alpha_min > 0 && eps < alpha_min ? alpha_min : eps;
-    }
-  });
-}
-
-vfe_status vfe_mpi_deposit(vfe_mpi_engine* e, int32_t components, const double* values, double* out) {
-  if (!e) return VFE_ERROR_INVALID_ARGUMENT;
-  std::vector<double> owned;
-  const vfe_status s = collective(*e, [&] {
-    require(components >= 1, "vfe_mpi_deposit: components must be >= 1");
-    require(out != nullptr || e->owned_cells() == 0, "vfe_mpi_deposit: out is NULL");
-    const std::int64_t particles = e->local->weights_size().particles;
-    require(values != nullptr || particles == 0, "vfe_mpi_deposit: values is NULL");
-    std::vector<double> extended(e->extended.size() * static_cast<std::size_t>(components));
-    e->local->deposit(components, {values, static_cast<std::size_t>(particles * components)}, extended);
-    owned.resize(static_cast<std::size_t>(e->owned_cells() * components));
-    copy_owned(*e, true, extended.data(), owned.data(), components);
-    e->halo.reverse_sum(extended, owned, components);
-  });
-  if (s == VFE_OK) std::copy(owned.begin(), owned.end(), out);
-  return s;
-}
-
-vfe_status vfe_mpi_interpolate(vfe_mpi_engine* e, int32_t components, const double* cell_field, double* out) {
-  if (!e) return VFE_ERROR_INVALID_ARGUMENT;
-  std::vector<double> result;
-  const vfe_status s = collective(*e, [&] {
-    require(components >= 1, "vfe_mpi_interpolate: components must be >= 1");
-    require(cell_field != nullptr || e->owned_cells() == 0, "vfe_mpi_interpolate: cell_field is NULL");
-    const std::int64_t particles = e->local->weights_size().particles;
-    require(out != nullptr || particles == 0, "vfe_mpi_interpolate: out is NULL");
-    std::vector<double> extended(e->extended.size() * static_cast<std::size_t>(components), 0.0);
-    copy_owned(*e, false, extended.data(), const_cast<double*>(cell_field), components);  // reads cell_field
-    e->halo.forward_fill({cell_field, static_cast<std::size_t>(e->owned_cells() * components)}, extended, components);
-    result.resize(static_cast<std::size_t>(particles * components));
-    e->local->interpolate(components, extended, result);
-  });
-  if (s == VFE_OK) std::copy(result.begin(), result.end(), out);
-  return s;
-}
-
-vfe_status vfe_mpi_weights_size(const vfe_mpi_engine* e, int64_t* n_particles, int64_t* n_entries) {
-  return local_call(e, [&] {
-    require(n_particles && n_entries, "vfe_mpi_weights_size: n_particles and n_entries must not be NULL");
-    const vfe::Engine::WeightsSize w = e->local->weights_size();
-    *n_particles = w.particles;
-    *n_entries = w.entries;
-  });
-}
-
-vfe_status vfe_mpi_weights(const vfe_mpi_engine* e, int64_t* offsets, int64_t* cells, double* fractions) {
-  return local_call(e, [&] {
-    const vfe::Engine::WeightsSize w = e->local->weights_size();
-    require(offsets && (w.entries == 0 || (cells && fractions)), "vfe_mpi_weights: output arrays must not be NULL");
-    std::vector<std::int64_t> o(static_cast<std::size_t>(w.particles + 1)), c(static_cast<std::size_t>(w.entries));
-    std::vector<double> f(static_cast<std::size_t>(w.entries));
-    e->local->weights(o, c, f);
-    if (e->poly) {
-      for (std::int64_t& cell : c) cell = e->poly->cell_ids[static_cast<std::size_t>(cell)];
-      std::copy(o.begin(), o.end(), offsets);
-      std::copy(c.begin(), c.end(), cells);
-      std::copy(f.begin(), f.end(), fractions);
-      return;
-    }
-    const Box ext = e->dec.extended(e->rank);
-    const Index3 n = ext.extent(), g = e->dec.cells;
-    for (std::int64_t& cell : c) {
-      Index3 ijk{cell % n[0], (cell / n[0]) % n[1], cell / (n[0] * n[1])};
-      for (int d = 0; d < 3; ++d) ijk[d] = (((ijk[d] + ext.lo[d]) % g[d]) + g[d]) % g[d];
-      cell = ijk[0] + g[0] * (ijk[1] + g[1] * ijk[2]);
-    }
-    std::copy(o.begin(), o.end(), offsets);
-    std::copy(c.begin(), c.end(), cells);
-    std::copy(f.begin(), f.end(), fractions);
-  });
-}
-
-vfe_status vfe_mpi_last_report(const vfe_mpi_engine* e, vfe_report* out) {
-  return local_call(e, [&] {
-    require(out != nullptr, "vfe_mpi_last_report: out is NULL");
-    *out = e->report;
-  });
-}
-
-vfe_status vfe_mpi_last_report_value(const vfe_mpi_engine* e, const char* key, double* out) {
-  return local_call(e, [&] {
-    require(key && out, "vfe_mpi_last_report_value: key and out must not be NULL");
-    const vfe_report& r = e->report;
-    const std::int64_t halo_values = e->halo.ghost_cells_sent();
-    const std::pair<const char*, double> facts[] = {
-        {"particles", double(r.particles)},
-        {"fast_path_particles", double(r.fast_path_particles)},
-        {"sub_elements", double(r.sub_elements)},
-        {"particle_grid_min", double(r.particle_grid_min)},
-        {"particle_grid_max", double(r.particle_grid_max)},
-        {"particle_volume", r.particle_volume},
-        {"deposited_volume", r.deposited_volume},
-        {"dropped_volume", r.dropped_volume},
-        {"outside_particles", double(r.outside_particles)},
-        {"clipped_volume", r.clipped_volume},
-        {"ghost_width", e->poly ? e->poly->width : double(*std::max_element(e->dec.ghost.begin(), e->dec.ghost.end()))},
-        {"ghost_bytes", e->poly ? double(e->poly->ghost_bytes) : 0.0},
-        {"neighbours", double(e->halo.peers().size())},
-        {"local_cells", double(e->extended.size())},
-        {"halo_values", double(halo_values)},
-        {"halo_bytes", double(halo_values) * double(sizeof(double))},
-        {"local_seconds", e->local_seconds},
-        {"local_cpu_seconds", e->local_cpu_seconds},
-        {"exchange_seconds", e->exchange_seconds},
-    };
-    for (const auto& [name, value] : facts)
-      if (std::strcmp(name, key) == 0) {
-        *out = value;
-        return;
-      }
-    throw Error(VFE_ERROR_INVALID_ARGUMENT, std::string("vfe_mpi_last_report_value: unknown key '") + key +
-                                                "'; see vfe_mpi.h for the keys");
-  });
-}
-
-const char* vfe_mpi_last_error(const vfe_mpi_engine* e) { return e ? e->error.c_str() : g_create_error.c_str(); }
-
-vfe_status vfe_mpi_set_log_callback(vfe_mpi_engine* e, vfe_log_fn fn, void* user) {
-  return local_call(e, [&] {
-    e->local->set_log_callback(fn, user);
-    e->log_fn = fn;
-    e->log_user = user;
-  });
-}
-
-vfe_status vfe_mpi_route_particles(const vfe_mpi_engine* e, int64_t n, const double* centres, const double* radii,
+vfe_status vfe_mpi_route_particles(const vfe_engine* engine, int64_t n, const double* centres, const double* radii,
                                    const int64_t* ids, int64_t* n_out, double** centres_out, double** radii_out,
                                    int64_t** ids_out) {
-  if (!e) return VFE_ERROR_INVALID_ARGUMENT;
-  auto& m = const_cast<vfe_mpi_engine&>(*e);  // collective calls record their message on the handle
+  return vfe::detail::with_backend(engine, [&](vfe::detail::EngineBackend* backend) {
+  auto& m = const_cast<DistributedEngine&>(distributed(backend, "vfe_mpi_route_particles"));
+  const DistributedEngine* e = &m;
   std::vector<double> got_centres, got_radii;
   std::vector<std::int64_t> got_ids;
-  const vfe_status s = collective(m, [&] {
+  collective(m, [&] {
     require(n >= 0, "vfe_mpi_route_particles: n must be >= 0");
     require(n == 0 || (centres && radii && ids), "vfe_mpi_route_particles: centres, radii and ids must not be NULL");
     require(n_out && centres_out && radii_out && ids_out, "vfe_mpi_route_particles: outputs must not be NULL");
@@ -1108,7 +1027,6 @@ vfe_status vfe_mpi_route_particles(const vfe_mpi_engine* e, int64_t n, const dou
       std::memcpy(&got_ids[static_cast<std::size_t>(i)], &recv[static_cast<std::size_t>(5 * i + 4)], sizeof(double));
     }
   });
-  if (s != VFE_OK) return s;
   const std::size_t count = got_radii.size();
   double* c = static_cast<double*>(std::malloc(std::max<std::size_t>(1, 3 * count) * sizeof(double)));
   double* r = static_cast<double*>(std::malloc(std::max<std::size_t>(1, count) * sizeof(double)));
@@ -1117,8 +1035,8 @@ vfe_status vfe_mpi_route_particles(const vfe_mpi_engine* e, int64_t n, const dou
     std::free(c);
     std::free(r);
     std::free(i);
-    m.error = "vfe_mpi_route_particles: out of memory for the received particles";
-    return VFE_ERROR_OUT_OF_MEMORY;  // this rank only: the exchange itself succeeded everywhere
+    // This rank only: the exchange itself succeeded everywhere.
+    throw Error(VFE_ERROR_OUT_OF_MEMORY, "vfe_mpi_route_particles: out of memory for the received particles");
   }
   std::copy(got_centres.begin(), got_centres.end(), c);
   std::copy(got_radii.begin(), got_radii.end(), r);
@@ -1127,7 +1045,7 @@ vfe_status vfe_mpi_route_particles(const vfe_mpi_engine* e, int64_t n, const dou
   *centres_out = c;
   *radii_out = r;
   *ids_out = i;
-  return VFE_OK;
+  });
 }
 
 }  // extern "C"

@@ -143,11 +143,11 @@ Comparison compare(const Grid& g, const std::vector<double>& owned, const std::v
   return c;
 }
 
-vfe_mpi_engine* create(const Grid& g, const int64_t lo[3], const int64_t hi[3]) {
-  vfe_mpi_engine* e = nullptr;
+vfe_engine* create(const Grid& g, const int64_t lo[3], const int64_t hi[3]) {
+  vfe_engine* e = nullptr;
   const vfe_status s =
       vfe_mpi_create_cartesian(MPI_COMM_WORLD, g.origin.data(), g.spacing.data(), g.cells.data(), lo, hi, &e);
-  EXPECT_EQ(s, VFE_OK) << vfe_mpi_last_error(nullptr);
+  EXPECT_EQ(s, VFE_OK) << vfe_last_error(nullptr);
   return e;
 }
 
@@ -169,21 +169,21 @@ TEST(DistributedCartesian, EqualsSerialEngineForEveryMethodAndDecomposition) {
         for (const std::array<int, 3>& parts : decompositions()) {
           int64_t lo[3], hi[3];
           split(g, parts, g_rank, lo, hi);
-          vfe_mpi_engine* e = create(g, lo, hi);
+          vfe_engine* e = create(g, lo, hi);
           ASSERT_NE(e, nullptr);
-          ASSERT_EQ(vfe_mpi_configure(e, options.c_str()), VFE_OK) << vfe_mpi_last_error(e);
+          ASSERT_EQ(vfe_configure(e, options.c_str()), VFE_OK) << vfe_last_error(e);
           const Local l = owned_particles(scene, g, lo, hi);
           const vfe_particles p = view(l.centres.data(), l.radii.data(), l.ids.data(), int64_t(l.radii.size()));
-          std::vector<double> owned(size_t(vfe_mpi_cell_count(e)), -1.0);
-          ASSERT_EQ(vfe_mpi_compute_particles(e, &p, owned.data()), VFE_OK)
-              << vfe_mpi_last_error(e) << " (" << scene.name << ", " << options << ", blocks " << describe(parts) << ")";
+          std::vector<double> owned(size_t(vfe_cell_count(e)), -1.0);
+          ASSERT_EQ(vfe_compute_particles(e, &p, owned.data()), VFE_OK)
+              << vfe_last_error(e) << " (" << scene.name << ", " << options << ", blocks " << describe(parts) << ")";
           const Comparison c = compare(g, owned, serial, lo, hi);
           EXPECT_LE(c.max_diff, 1e-12 * scene.largest_volume())
               << scene.name << ", " << options << ", blocks " << describe(parts);
           vfe_report r{};
-          ASSERT_EQ(vfe_mpi_last_report(e, &r), VFE_OK);
+          ASSERT_EQ(vfe_last_report(e, &r), VFE_OK);
           EXPECT_EQ(r.particles, int64_t(scene.size())) << scene.name << ", " << options;
-          vfe_mpi_destroy(e);
+          vfe_destroy(e);
         }
       }
 }
@@ -200,12 +200,12 @@ TEST(DistributedCartesian, DeterministicEqualsSerialToRoundOff) {
     for (const std::array<int, 3>& parts : decompositions()) {
       int64_t lo[3], hi[3];
       split(g, parts, g_rank, lo, hi);
-      vfe_mpi_engine* e = create(g, lo, hi);
-      ASSERT_EQ(vfe_mpi_configure(e, options.c_str()), VFE_OK);
+      vfe_engine* e = create(g, lo, hi);
+      ASSERT_EQ(vfe_configure(e, options.c_str()), VFE_OK);
       const Local l = owned_particles(scene, g, lo, hi);
       const vfe_particles p = view(l.centres.data(), l.radii.data(), l.ids.data(), int64_t(l.radii.size()));
-      std::vector<double> owned(size_t(vfe_mpi_cell_count(e)));
-      ASSERT_EQ(vfe_mpi_compute_particles(e, &p, owned.data()), VFE_OK);
+      std::vector<double> owned(size_t(vfe_cell_count(e)));
+      ASSERT_EQ(vfe_compute_particles(e, &p, owned.data()), VFE_OK);
       const Comparison c = compare(g, owned, serial, lo, hi);
       if (g_rank == 0)
         std::printf("deterministic=1 periodic=%s, %d ranks, blocks %s: max |distributed - serial| = %.3g (%.3g of V_p), "
@@ -216,7 +216,7 @@ TEST(DistributedCartesian, DeterministicEqualsSerialToRoundOff) {
       if (g_size == 1 && std::string(periodic) == "none") {
         EXPECT_EQ(c.unequal_cells, 0);  // one rank, no ghost cells: the serial engine itself
       }
-      vfe_mpi_destroy(e);
+      vfe_destroy(e);
     }
   }
 }
@@ -227,19 +227,19 @@ TEST(DistributedCartesian, GhostLayerWidensForLargerParticles) {
   const std::vector<Scene> all = scenes(g);
   int64_t lo[3], hi[3];
   split(g, decompositions().back(), g_rank, lo, hi);
-  vfe_mpi_engine* e = create(g, lo, hi);
-  ASSERT_EQ(vfe_mpi_configure(e, "method=exact periodic=x"), VFE_OK);
+  vfe_engine* e = create(g, lo, hi);
+  ASSERT_EQ(vfe_configure(e, "method=exact periodic=x"), VFE_OK);
   double widths[2];
   for (int pass = 0; pass < 2; ++pass) {
     const Scene& scene = all[pass == 0 ? 1 : 2];  // stream, then large particles
     const std::vector<double> serial = serial_field(g, scene, "method=exact periodic=x");
     const Local l = owned_particles(scene, g, lo, hi);
-    std::vector<double> owned(size_t(vfe_mpi_cell_count(e)));
-    ASSERT_EQ(vfe_mpi_compute(e, int64_t(l.radii.size()), l.centres.data(), l.radii.data(), nullptr, owned.data()),
+    std::vector<double> owned(size_t(vfe_cell_count(e)));
+    ASSERT_EQ(vfe_compute(e, int64_t(l.radii.size()), l.centres.data(), l.radii.data(), nullptr, owned.data()),
               VFE_OK)
-        << vfe_mpi_last_error(e);
+        << vfe_last_error(e);
     EXPECT_LE(compare(g, owned, serial, lo, hi).max_diff, 1e-12 * scene.largest_volume());
-    ASSERT_EQ(vfe_mpi_last_report_value(e, "ghost_width", &widths[pass]), VFE_OK);
+    ASSERT_EQ(vfe_last_report_value(e, "ghost_width", &widths[pass]), VFE_OK);
   }
   // exact reaches r: ceil(r_max / h) + 1 cells on the finest axis (z, 0.9 mm), for the stream's
   // r_max < 0.3 mm 2 cells, then the large particles' width.
@@ -247,65 +247,130 @@ TEST(DistributedCartesian, GhostLayerWidensForLargerParticles) {
   EXPECT_EQ(widths[0], 2);
   EXPECT_EQ(widths[1], std::ceil(r_large / g.spacing[2]) + 1);
   EXPECT_GT(widths[1], widths[0]);
-  vfe_mpi_destroy(e);
+  vfe_destroy(e);
 }
 
-// A particle on a rank that does not own its centre's cell fails the compute on every rank,
-// names the particle and its owner, and leaves the outputs untouched.
+// A particle on a rank that does not own its centre's cell fails the ordinary vfe_compute on
+// every rank with the same status and rank 0's message, and leaves the outputs untouched.
 TEST(DistributedCartesian, ParticleOnTheWrongRankIsRefusedEverywhere) {
   const Grid g;
   int64_t lo[3], hi[3];
   split(g, {g_size, 1, 1}, g_rank, lo, hi);
-  vfe_mpi_engine* e = create(g, lo, hi);
-  ASSERT_EQ(vfe_mpi_configure(e, "method=exact"), VFE_OK);
+  vfe_engine* e = create(g, lo, hi);
+  ASSERT_EQ(vfe_configure(e, "method=exact"), VFE_OK);
   // Rank 0 passes a particle in the last cell along x (owned by the last rank); with one rank
   // every particle is its own, so it passes none and the compute succeeds.
   double centre[3] = {g.origin[0] + (double(g.cells[0]) - 0.5) * g.spacing[0], g.origin[1] + 0.005, g.origin[2] + 0.004};
   const double radius = 0.0004;
-  const int64_t id = 1;
   int owner = -1;
   ASSERT_EQ(vfe_mpi_owner(e, centre, &owner), VFE_OK);
   EXPECT_EQ(owner, g_size - 1);
   const bool give = g_rank == 0 && g_size > 1;
-  const vfe_particles p = view(centre, &radius, &id, give ? 1 : 0);
-  std::vector<double> owned(size_t(vfe_mpi_cell_count(e)), -7.0);
-  const vfe_status s = vfe_mpi_compute_particles(e, &p, owned.data());
+  std::vector<double> owned(size_t(vfe_cell_count(e)), -7.0);
+  const vfe_status s = vfe_compute(e, give ? 1 : 0, centre, &radius, nullptr, owned.data());
   if (g_size > 1) {
     EXPECT_EQ(s, VFE_ERROR_INVALID_ARGUMENT);
-    EXPECT_NE(std::strstr(vfe_mpi_last_error(e), "owned by rank"), nullptr) << vfe_mpi_last_error(e);
+    const std::string message = vfe_last_error(e);
+    EXPECT_EQ(message.rfind("rank 0: particle 0", 0), 0u) << message;
+    EXPECT_NE(message.find("owned by rank " + std::to_string(g_size - 1)), std::string::npos) << message;
     EXPECT_TRUE(std::all_of(owned.begin(), owned.end(), [](double v) { return v == -7.0; }));
   } else {
     EXPECT_EQ(s, VFE_OK);
   }
   // The engine stays usable.
-  EXPECT_EQ(vfe_mpi_compute_particles(e, &p, owned.data()) == VFE_OK, g_size == 1);
-  const vfe_particles none = view(nullptr, nullptr, nullptr, 0);
-  EXPECT_EQ(vfe_mpi_compute_particles(e, &none, owned.data()), VFE_OK) << vfe_mpi_last_error(e);
-  vfe_mpi_destroy(e);
+  EXPECT_EQ(vfe_compute(e, give ? 1 : 0, centre, &radius, nullptr, owned.data()) == VFE_OK, g_size == 1);
+  EXPECT_EQ(vfe_compute(e, 0, nullptr, nullptr, nullptr, owned.data()), VFE_OK) << vfe_last_error(e);
+  EXPECT_STREQ(vfe_last_error(e), "");
+  vfe_destroy(e);
+}
+
+// A bad argument on one rank only (its solid_volume NULL) fails the collective call on every
+// rank instead of leaving the others waiting in it; the next call works everywhere.
+TEST(DistributedCartesian, NullArgumentOnOneRankFailsEveryRank) {
+  const Grid g;
+  int64_t lo[3], hi[3];
+  split(g, {g_size, 1, 1}, g_rank, lo, hi);
+  vfe_engine* e = create(g, lo, hi);
+  std::vector<double> owned(size_t(vfe_cell_count(e)), -7.0);
+  const int last = g_size - 1;
+  EXPECT_EQ(vfe_compute(e, 0, nullptr, nullptr, nullptr, g_rank == last ? nullptr : owned.data()),
+            VFE_ERROR_INVALID_ARGUMENT);
+  const std::string expected = (g_size > 1 ? "rank " + std::to_string(last) + ": " : std::string()) + "solid_volume is NULL";
+  EXPECT_EQ(std::string(vfe_last_error(e)).rfind(expected, 0), 0u) << vfe_last_error(e);
+  EXPECT_TRUE(std::all_of(owned.begin(), owned.end(), [](double v) { return v == -7.0; }));
+  EXPECT_EQ(vfe_configure(e, g_rank == last ? nullptr : "method=direct"), VFE_ERROR_INVALID_ARGUMENT);
+  EXPECT_NE(std::strstr(vfe_last_error(e), "options is NULL"), nullptr) << vfe_last_error(e);
+  EXPECT_EQ(vfe_compute(e, 0, nullptr, nullptr, nullptr, owned.data()), VFE_OK) << vfe_last_error(e);
+  vfe_destroy(e);
+}
+
+// The MPI-only calls refuse an engine on one mesh with a message, leaving it and the
+// outputs untouched; libvfe's own engines have no backend.
+TEST(DistributedCartesian, EngineOfOneMeshIsNotDistributed) {
+  const Grid g;
+  vfe_engine* serial = nullptr;
+  ASSERT_EQ(vfe_create_cartesian(g.origin.data(), g.spacing.data(), g.cells.data(), &serial), VFE_OK);
+  const double centre[3] = {g.origin[0] + 0.0005, g.origin[1] + 0.0005, g.origin[2] + 0.0005}, radius = 0.0003;
+  const int64_t id = 3;
+  int owner = -5;
+  EXPECT_EQ(vfe_mpi_owner(serial, centre, &owner), VFE_ERROR_INVALID_ARGUMENT);
+  EXPECT_EQ(owner, -5);
+  EXPECT_NE(std::strstr(vfe_last_error(serial), "vfe_mpi_owner: the engine is not distributed"), nullptr)
+      << vfe_last_error(serial);
+  int64_t got = -1;
+  double *c = nullptr, *r = nullptr;
+  int64_t* ids = nullptr;
+  EXPECT_EQ(vfe_mpi_route_particles(serial, 1, centre, &radius, &id, &got, &c, &r, &ids), VFE_ERROR_INVALID_ARGUMENT);
+  EXPECT_EQ(got, -1);
+  EXPECT_EQ(c, nullptr);
+  EXPECT_NE(std::strstr(vfe_last_error(serial), "not distributed"), nullptr) << vfe_last_error(serial);
+  EXPECT_EQ(vfe_mpi_owner(nullptr, centre, &owner), VFE_ERROR_INVALID_ARGUMENT);
+  // The engine stays usable.
+  std::vector<double> solid(size_t(vfe_cell_count(serial)));
+  EXPECT_EQ(vfe_compute(serial, 1, centre, &radius, nullptr, solid.data()), VFE_OK) << vfe_last_error(serial);
+  vfe_destroy(serial);
+}
+
+// Shapes are not distributed: vfe_add_shape and shape ids answer VFE_ERROR_UNSUPPORTED on
+// every rank, and spheres still compute.
+TEST(DistributedCartesian, ShapesAreRefused) {
+  const Grid g;
+  int64_t lo[3], hi[3];
+  split(g, {g_size, 1, 1}, g_rank, lo, hi);
+  vfe_engine* e = create(g, lo, hi);
+  int32_t shape = -1;
+  EXPECT_EQ(vfe_add_shape(e, "ellipsoid 1 0.5 0.5", &shape), VFE_ERROR_UNSUPPORTED);
+  EXPECT_EQ(shape, -1);
+  EXPECT_NE(std::strstr(vfe_last_error(e), "spheres only"), nullptr) << vfe_last_error(e);
+  std::vector<double> owned(size_t(vfe_cell_count(e)));
+  const int32_t zero = 0;
+  EXPECT_EQ(vfe_compute_shapes(e, 0, nullptr, nullptr, nullptr, &zero, owned.data()), VFE_ERROR_UNSUPPORTED);
+  EXPECT_EQ(vfe_compute(e, 0, nullptr, nullptr, nullptr, owned.data()), VFE_OK) << vfe_last_error(e);
+  vfe_destroy(e);
 }
 
 TEST(DistributedCartesian, RandomOrientationWithoutIdsIsRefused) {
   const Grid g;
   int64_t lo[3], hi[3];
   split(g, {g_size, 1, 1}, g_rank, lo, hi);
-  vfe_mpi_engine* e = create(g, lo, hi);
+  vfe_engine* e = create(g, lo, hi);
   const Local l = owned_particles(scenes(g)[0], g, lo, hi);
-  std::vector<double> owned(size_t(vfe_mpi_cell_count(e)));
+  std::vector<double> owned(size_t(vfe_cell_count(e)));
   // Every rank owns some of the bed's particles, so every rank fails alike.
-  EXPECT_EQ(vfe_mpi_compute(e, int64_t(l.radii.size()), l.centres.data(), l.radii.data(), nullptr, owned.data()),
+  EXPECT_EQ(vfe_compute(e, int64_t(l.radii.size()), l.centres.data(), l.radii.data(), nullptr, owned.data()),
             VFE_ERROR_INVALID_ARGUMENT);
-  EXPECT_NE(std::strstr(vfe_mpi_last_error(e), "ids"), nullptr) << vfe_mpi_last_error(e);
-  vfe_mpi_destroy(e);
+  EXPECT_NE(std::strstr(vfe_last_error(e), "ids"), nullptr) << vfe_last_error(e);
+  vfe_destroy(e);
 }
 
 TEST(DistributedCartesian, BlocksThatDoNotTileTheGridAreRefused) {
   const Grid g;
   int64_t lo[3] = {0, 0, 0}, hi[3] = {g.cells[0], g.cells[1], g.cells[2]};
-  vfe_mpi_engine* e = nullptr;
+  vfe_engine* e = nullptr;
   if (g_size > 1) {  // every rank claims the whole grid: overlap
     EXPECT_EQ(vfe_mpi_create_cartesian(MPI_COMM_WORLD, g.origin.data(), g.spacing.data(), g.cells.data(), lo, hi, &e),
               VFE_ERROR_INVALID_ARGUMENT);
-    EXPECT_NE(std::strstr(vfe_mpi_last_error(nullptr), "overlap"), nullptr) << vfe_mpi_last_error(nullptr);
+    EXPECT_NE(std::strstr(vfe_last_error(nullptr), "overlap"), nullptr) << vfe_last_error(nullptr);
   }
   hi[0] = g.cells[0] - 1;  // a gap (and overlaps with more ranks)
   EXPECT_EQ(vfe_mpi_create_cartesian(MPI_COMM_WORLD, g.origin.data(), g.spacing.data(), g.cells.data(), lo, hi, &e),
@@ -321,20 +386,20 @@ TEST(DistributedCartesian, BadOptionChangesNothing) {
   const Grid g;
   int64_t lo[3], hi[3];
   split(g, {g_size, 1, 1}, g_rank, lo, hi);
-  vfe_mpi_engine* e = create(g, lo, hi);
-  ASSERT_EQ(vfe_mpi_configure(e, "method=exact"), VFE_OK);
-  EXPECT_EQ(vfe_mpi_configure(e, "method=direct periodic=w"), VFE_ERROR_INVALID_ARGUMENT);
-  EXPECT_EQ(vfe_mpi_configure(e, "method=direct sigma=-1"), VFE_ERROR_INVALID_ARGUMENT);
-  EXPECT_EQ(vfe_mpi_configure(e, "method=direct smoothing_length=0.001"), VFE_ERROR_UNSUPPORTED);
-  EXPECT_NE(std::strstr(vfe_mpi_last_error(e), "smoothing_length"), nullptr) << vfe_mpi_last_error(e);
+  vfe_engine* e = create(g, lo, hi);
+  ASSERT_EQ(vfe_configure(e, "method=exact"), VFE_OK);
+  EXPECT_EQ(vfe_configure(e, "method=direct periodic=w"), VFE_ERROR_INVALID_ARGUMENT);
+  EXPECT_EQ(vfe_configure(e, "method=direct sigma=-1"), VFE_ERROR_INVALID_ARGUMENT);
+  EXPECT_EQ(vfe_configure(e, "method=direct smoothing_length=0.001"), VFE_ERROR_UNSUPPORTED);
+  EXPECT_NE(std::strstr(vfe_last_error(e), "smoothing_length"), nullptr) << vfe_last_error(e);
   const Scene scene = scenes(g)[2];
   const std::vector<double> serial = serial_field(g, scene, "method=exact");
   const Local l = owned_particles(scene, g, lo, hi);
-  std::vector<double> owned(size_t(vfe_mpi_cell_count(e)));
-  ASSERT_EQ(vfe_mpi_compute(e, int64_t(l.radii.size()), l.centres.data(), l.radii.data(), nullptr, owned.data()),
+  std::vector<double> owned(size_t(vfe_cell_count(e)));
+  ASSERT_EQ(vfe_compute(e, int64_t(l.radii.size()), l.centres.data(), l.radii.data(), nullptr, owned.data()),
             VFE_OK);
   EXPECT_LE(compare(g, owned, serial, lo, hi).max_diff, 1e-12 * scene.largest_volume());
-  vfe_mpi_destroy(e);
+  vfe_destroy(e);
 }
 
 // deposit (reverse halo sum of k components) and interpolate (forward halo fill) against the
@@ -374,14 +439,14 @@ TEST(DistributedCartesian, DepositInterpolateAndVoidFractionEqualSerial) {
   for (const std::array<int, 3>& parts : decompositions()) {
     int64_t lo[3], hi[3];
     split(g, parts, g_rank, lo, hi);
-    vfe_mpi_engine* e = create(g, lo, hi);
-    ASSERT_EQ(vfe_mpi_configure(e, options.c_str()), VFE_OK);
+    vfe_engine* e = create(g, lo, hi);
+    ASSERT_EQ(vfe_configure(e, options.c_str()), VFE_OK);
     const Local l = owned_particles(scene, g, lo, hi);
-    const std::size_t n = l.radii.size(), cells = size_t(vfe_mpi_cell_count(e));
+    const std::size_t n = l.radii.size(), cells = size_t(vfe_cell_count(e));
     const vfe_particles p = view(l.centres.data(), l.radii.data(), l.ids.data(), int64_t(n));
     std::vector<double> solid(cells), eps(cells), my_values(2 * n), my_field(2 * cells), dep(2 * cells), interp(2 * n);
-    ASSERT_EQ(vfe_mpi_compute_particles(e, &p, solid.data()), VFE_OK);
-    ASSERT_EQ(vfe_mpi_void_fraction(e, eps.data()), VFE_OK);
+    ASSERT_EQ(vfe_compute_particles(e, &p, solid.data()), VFE_OK);
+    ASSERT_EQ(vfe_void_fraction(e, eps.data()), VFE_OK);
     for (std::size_t i = 0; i < n; ++i)
       for (int j = 0; j < k; ++j) my_values[2 * i + j] = values[2 * l.index[i] + j];
     std::size_t at = 0;
@@ -389,8 +454,8 @@ TEST(DistributedCartesian, DepositInterpolateAndVoidFractionEqualSerial) {
       for (int64_t y = lo[1]; y < hi[1]; ++y)
         for (int64_t x = lo[0]; x < hi[0]; ++x, ++at)
           for (int j = 0; j < k; ++j) my_field[2 * at + j] = field[2 * size_t(x + g.cells[0] * (y + g.cells[1] * z)) + j];
-    ASSERT_EQ(vfe_mpi_deposit(e, k, my_values.data(), dep.data()), VFE_OK) << vfe_mpi_last_error(e);
-    ASSERT_EQ(vfe_mpi_interpolate(e, k, my_field.data(), interp.data()), VFE_OK) << vfe_mpi_last_error(e);
+    ASSERT_EQ(vfe_deposit(e, k, my_values.data(), dep.data()), VFE_OK) << vfe_last_error(e);
+    ASSERT_EQ(vfe_interpolate(e, k, my_field.data(), interp.data()), VFE_OK) << vfe_last_error(e);
     // Component j of each owned cell against the serial field's.
     for (int j = 0; j < k; ++j) {
       std::vector<double> mine(cells), theirs(serial_eps.size());
@@ -405,11 +470,11 @@ TEST(DistributedCartesian, DepositInterpolateAndVoidFractionEqualSerial) {
     EXPECT_LE(max_over_ranks(worst), 1e-12) << "interpolate, blocks " << describe(parts);
     // Weights name global cells: each particle's (cell, fraction) list equals the serial one.
     int64_t np = 0, ne = 0;
-    ASSERT_EQ(vfe_mpi_weights_size(e, &np, &ne), VFE_OK);
+    ASSERT_EQ(vfe_weights_size(e, &np, &ne), VFE_OK);
     ASSERT_EQ(np, int64_t(n));
     std::vector<int64_t> offsets(static_cast<size_t>(np + 1)), wcells(static_cast<size_t>(ne));
     std::vector<double> fractions(static_cast<size_t>(ne));
-    ASSERT_EQ(vfe_mpi_weights(e, offsets.data(), wcells.data(), fractions.data()), VFE_OK);
+    ASSERT_EQ(vfe_weights(e, offsets.data(), wcells.data(), fractions.data()), VFE_OK);
     double weight_diff = 0;
     for (std::size_t i = 0; i < n; ++i) {
       std::vector<std::pair<int64_t, double>> mine, theirs;
@@ -424,7 +489,7 @@ TEST(DistributedCartesian, DepositInterpolateAndVoidFractionEqualSerial) {
         weight_diff = std::max(weight_diff, mine[a].first != theirs[a].first ? 1.0 : std::abs(mine[a].second - theirs[a].second));
     }
     EXPECT_LE(max_over_ranks(weight_diff), 1e-12) << "weights, blocks " << describe(parts);
-    vfe_mpi_destroy(e);
+    vfe_destroy(e);
   }
 }
 
@@ -434,25 +499,25 @@ TEST(DistributedCartesian, RoutedParticlesEqualSerial) {
   const Scene scene = scenes(g)[2];
   int64_t lo[3], hi[3];
   split(g, decompositions().back(), g_rank, lo, hi);
-  vfe_mpi_engine* e = create(g, lo, hi);
-  ASSERT_EQ(vfe_mpi_configure(e, "method=pmm periodic=y"), VFE_OK);
+  vfe_engine* e = create(g, lo, hi);
+  ASSERT_EQ(vfe_configure(e, "method=pmm periodic=y"), VFE_OK);
   const int64_t n = g_rank == 0 ? int64_t(scene.size()) : 0;
   int64_t got = 0;
   double *c = nullptr, *r = nullptr;
   int64_t* ids = nullptr;
   ASSERT_EQ(vfe_mpi_route_particles(e, n, scene.centres.data(), scene.radii.data(), scene.ids.data(), &got, &c, &r, &ids),
             VFE_OK)
-      << vfe_mpi_last_error(e);
+      << vfe_last_error(e);
   EXPECT_EQ(got, int64_t(owned_particles(scene, g, lo, hi).radii.size()));
-  std::vector<double> owned(size_t(vfe_mpi_cell_count(e)));
+  std::vector<double> owned(size_t(vfe_cell_count(e)));
   const vfe_particles p = view(c, r, ids, got);
-  ASSERT_EQ(vfe_mpi_compute_particles(e, &p, owned.data()), VFE_OK) << vfe_mpi_last_error(e);
+  ASSERT_EQ(vfe_compute_particles(e, &p, owned.data()), VFE_OK) << vfe_last_error(e);
   EXPECT_LE(compare(g, owned, serial_field(g, scene, "method=pmm periodic=y"), lo, hi).max_diff,
             1e-12 * scene.largest_volume());
   std::free(c);
   std::free(r);
   std::free(ids);
-  vfe_mpi_destroy(e);
+  vfe_destroy(e);
 }
 
 }  // namespace

@@ -121,9 +121,9 @@ TEST(DistributedPolyMesh, EqualsSerialEngineForEveryMethod) {
     const std::vector<int64_t> cell_ids = my_cell_ids(mesh);
     // Every global cell is owned by exactly one rank.
     ASSERT_EQ(sum_over_ranks(double(cell_ids.size())), double(serial.cell_count())) << mesh.name;
-    vfe_mpi_engine* e = nullptr;
-    ASSERT_EQ(vfe_mpi_create_polymesh(MPI_COMM_WORLD, my_folder(mesh).c_str(), &e), VFE_OK) << vfe_mpi_last_error(nullptr);
-    ASSERT_EQ(vfe_mpi_cell_count(e), int64_t(cell_ids.size()));
+    vfe_engine* e = nullptr;
+    ASSERT_EQ(vfe_mpi_create_polymesh(MPI_COMM_WORLD, my_folder(mesh).c_str(), &e), VFE_OK) << vfe_last_error(nullptr);
+    ASSERT_EQ(vfe_cell_count(e), int64_t(cell_ids.size()));
     for (const Scene& scene : scenes(mesh, serial)) {
       const Local l = my_particles(scene, serial, cell_ids);
       ASSERT_EQ(sum_over_ranks(double(l.radii.size())), double(scene.size()));
@@ -132,10 +132,10 @@ TEST(DistributedPolyMesh, EqualsSerialEngineForEveryMethod) {
         serial.configure(options);
         std::vector<double> expected(static_cast<std::size_t>(serial.cell_count()));
         serial.compute(view(scene.centres.data(), scene.radii.data(), scene.ids.data(), int64_t(scene.size())), expected);
-        ASSERT_EQ(vfe_mpi_configure(e, options.c_str()), VFE_OK) << vfe_mpi_last_error(e);
+        ASSERT_EQ(vfe_configure(e, options.c_str()), VFE_OK) << vfe_last_error(e);
         std::vector<double> field(cell_ids.size(), -1.0);
         const vfe_particles p = view(l.centres.data(), l.radii.data(), l.ids.data(), int64_t(l.radii.size()));
-        ASSERT_EQ(vfe_mpi_compute_particles(e, &p, field.data()), VFE_OK) << vfe_mpi_last_error(e);
+        ASSERT_EQ(vfe_compute_particles(e, &p, field.data()), VFE_OK) << vfe_last_error(e);
         const double diff = max_difference(field, cell_ids, expected);
         EXPECT_LE(diff, 1e-12 * scene.largest_volume())
             << mesh.name << ", " << scene.name << ", " << method << " on " << g_size << " ranks";
@@ -148,7 +148,7 @@ TEST(DistributedPolyMesh, EqualsSerialEngineForEveryMethod) {
                       scene.name.c_str(), method, g_size, diff / scene.largest_volume());
       }
     }
-    vfe_mpi_destroy(e);
+    vfe_destroy(e);
   }
 }
 
@@ -156,10 +156,10 @@ TEST(DistributedPolyMesh, GhostLayerWidensForLargerParticles) {
   for (const Mesh& mesh : kMeshes) {
     vfe::Engine serial(vfe::PolyMeshSpec{undecomposed(mesh)});
     const std::vector<int64_t> cell_ids = my_cell_ids(mesh);
-    vfe_mpi_engine* e = nullptr;
+    vfe_engine* e = nullptr;
     ASSERT_EQ(vfe_mpi_create_polymesh(MPI_COMM_WORLD, my_folder(mesh).c_str(), &e), VFE_OK)
-        << vfe_mpi_last_error(nullptr);
-    ASSERT_EQ(vfe_mpi_configure(e, "method=exact outside=drop"), VFE_OK) << vfe_mpi_last_error(e);
+        << vfe_last_error(nullptr);
+    ASSERT_EQ(vfe_configure(e, "method=exact outside=drop"), VFE_OK) << vfe_last_error(e);
     double widths[2] = {0, 0}, bytes[2] = {0, 0};
     const std::vector<Scene> all = scenes(mesh, serial);
     for (int k = 0; k < 2; ++k) {
@@ -167,11 +167,11 @@ TEST(DistributedPolyMesh, GhostLayerWidensForLargerParticles) {
       const Local l = my_particles(scene, serial, cell_ids);
       std::vector<double> field(cell_ids.size());
       const vfe_particles p = view(l.centres.data(), l.radii.data(), l.ids.data(), int64_t(l.radii.size()));
-      ASSERT_EQ(vfe_mpi_compute_particles(e, &p, field.data()), VFE_OK) << vfe_mpi_last_error(e);
-      ASSERT_EQ(vfe_mpi_last_report_value(e, "ghost_width", &widths[k]), VFE_OK);
-      ASSERT_EQ(vfe_mpi_last_report_value(e, "ghost_bytes", &bytes[k]), VFE_OK);
+      ASSERT_EQ(vfe_compute_particles(e, &p, field.data()), VFE_OK) << vfe_last_error(e);
+      ASSERT_EQ(vfe_last_report_value(e, "ghost_width", &widths[k]), VFE_OK);
+      ASSERT_EQ(vfe_last_report_value(e, "ghost_bytes", &bytes[k]), VFE_OK);
       double local_cells = 0;
-      ASSERT_EQ(vfe_mpi_last_report_value(e, "local_cells", &local_cells), VFE_OK);
+      ASSERT_EQ(vfe_last_report_value(e, "local_cells", &local_cells), VFE_OK);
       const double most_ghosts = max_over_ranks(local_cells - double(cell_ids.size()));
       // exact reaches r; the layer adds one cell (the largest cell side, about 2.3 mm here).
       EXPECT_GE(widths[k], *std::max_element(scene.radii.begin(), scene.radii.end()));
@@ -186,7 +186,7 @@ TEST(DistributedPolyMesh, GhostLayerWidensForLargerParticles) {
                     mesh.name.c_str(), g_size, widths[k], most, most_ghosts, least_owned, most_owned);
     }
     EXPECT_GT(widths[1], widths[0]);
-    vfe_mpi_destroy(e);
+    vfe_destroy(e);
   }
 }
 
@@ -235,19 +235,19 @@ TEST(DistributedPolyMesh, CentresOutsideTheMeshBelongToTheNearestCellsOwner) {
     l.radii.push_back(s.radii[i]);
     l.ids.push_back(s.ids[i]);
   }
-  vfe_mpi_engine* e = nullptr;
-  ASSERT_EQ(vfe_mpi_create_polymesh(MPI_COMM_WORLD, my_folder(mesh).c_str(), &e), VFE_OK) << vfe_mpi_last_error(nullptr);
+  vfe_engine* e = nullptr;
+  ASSERT_EQ(vfe_mpi_create_polymesh(MPI_COMM_WORLD, my_folder(mesh).c_str(), &e), VFE_OK) << vfe_last_error(nullptr);
   for (const char* options : {"method=pmm outside=nearest", "method=exact outside=drop", "method=divided outside=centre"}) {
     serial.configure(options);
     std::vector<double> expected(static_cast<std::size_t>(serial.cell_count()));
     serial.compute(view(s.centres.data(), s.radii.data(), s.ids.data(), int64_t(s.size())), expected);
-    ASSERT_EQ(vfe_mpi_configure(e, options), VFE_OK) << vfe_mpi_last_error(e);
+    ASSERT_EQ(vfe_configure(e, options), VFE_OK) << vfe_last_error(e);
     std::vector<double> field(cell_ids.size());
     const vfe_particles p = view(l.centres.data(), l.radii.data(), l.ids.data(), int64_t(l.radii.size()));
-    ASSERT_EQ(vfe_mpi_compute_particles(e, &p, field.data()), VFE_OK) << vfe_mpi_last_error(e);
+    ASSERT_EQ(vfe_compute_particles(e, &p, field.data()), VFE_OK) << vfe_last_error(e);
     EXPECT_LE(max_difference(field, cell_ids, expected), 1e-12 * s.largest_volume()) << options;
   }
-  vfe_mpi_destroy(e);
+  vfe_destroy(e);
 }
 
 TEST(DistributedPolyMesh, DepositInterpolateWeightsAndVoidFractionEqualSerial) {
@@ -260,17 +260,17 @@ TEST(DistributedPolyMesh, DepositInterpolateWeightsAndVoidFractionEqualSerial) {
   serial.configure(options);
   std::vector<double> expected(static_cast<std::size_t>(serial.cell_count()));
   serial.compute(view(scene.centres.data(), scene.radii.data(), scene.ids.data(), int64_t(scene.size())), expected);
-  vfe_mpi_engine* e = nullptr;
-  ASSERT_EQ(vfe_mpi_create_polymesh(MPI_COMM_WORLD, my_folder(mesh).c_str(), &e), VFE_OK) << vfe_mpi_last_error(nullptr);
-  ASSERT_EQ(vfe_mpi_configure(e, options.c_str()), VFE_OK) << vfe_mpi_last_error(e);
+  vfe_engine* e = nullptr;
+  ASSERT_EQ(vfe_mpi_create_polymesh(MPI_COMM_WORLD, my_folder(mesh).c_str(), &e), VFE_OK) << vfe_last_error(nullptr);
+  ASSERT_EQ(vfe_configure(e, options.c_str()), VFE_OK) << vfe_last_error(e);
   const std::size_t n = cell_ids.size(), np = l.radii.size();
   std::vector<double> field(n);
   const vfe_particles p = view(l.centres.data(), l.radii.data(), l.ids.data(), int64_t(np));
-  ASSERT_EQ(vfe_mpi_compute_particles(e, &p, field.data()), VFE_OK) << vfe_mpi_last_error(e);
+  ASSERT_EQ(vfe_compute_particles(e, &p, field.data()), VFE_OK) << vfe_last_error(e);
   // Void fraction with alpha_min.
   std::vector<double> eps_serial(expected.size()), eps(n);
   serial.void_fraction(eps_serial);
-  ASSERT_EQ(vfe_mpi_void_fraction(e, eps.data()), VFE_OK);
+  ASSERT_EQ(vfe_void_fraction(e, eps.data()), VFE_OK);
   double worst = 0;
   for (std::size_t c = 0; c < n; ++c) worst = std::max(worst, std::abs(eps[c] - eps_serial[static_cast<std::size_t>(cell_ids[c])]));
   EXPECT_LE(max_over_ranks(worst), 1e-12);
@@ -280,7 +280,7 @@ TEST(DistributedPolyMesh, DepositInterpolateWeightsAndVoidFractionEqualSerial) {
   for (std::size_t i = 0; i < np; ++i) values[2 * i] = 1.0 + 1e-3 * double(l.ids[i] % 97), values[2 * i + 1] = -2.0;
   std::vector<double> dep_serial(2 * expected.size()), dep(2 * n);
   serial.deposit(2, values_all, dep_serial);
-  ASSERT_EQ(vfe_mpi_deposit(e, 2, values.data(), dep.data()), VFE_OK) << vfe_mpi_last_error(e);
+  ASSERT_EQ(vfe_deposit(e, 2, values.data(), dep.data()), VFE_OK) << vfe_last_error(e);
   worst = 0;
   for (std::size_t c = 0; c < n; ++c)
     for (int j = 0; j < 2; ++j)
@@ -292,7 +292,7 @@ TEST(DistributedPolyMesh, DepositInterpolateWeightsAndVoidFractionEqualSerial) {
   for (std::size_t c = 0; c < n; ++c) cell_field[c] = cell_field_all[static_cast<std::size_t>(cell_ids[c])];
   std::vector<double> at_serial(scene.size()), at(np);
   serial.interpolate(1, cell_field_all, at_serial);
-  ASSERT_EQ(vfe_mpi_interpolate(e, 1, cell_field.data(), at.data()), VFE_OK) << vfe_mpi_last_error(e);
+  ASSERT_EQ(vfe_interpolate(e, 1, cell_field.data(), at.data()), VFE_OK) << vfe_last_error(e);
   worst = 0;
   for (std::size_t i = 0; i < np; ++i) {
     const std::size_t k = static_cast<std::size_t>(std::find(scene.ids.begin(), scene.ids.end(), l.ids[i]) - scene.ids.begin());
@@ -301,11 +301,11 @@ TEST(DistributedPolyMesh, DepositInterpolateWeightsAndVoidFractionEqualSerial) {
   EXPECT_LE(max_over_ranks(worst), 1e-12);
   // Weights name global cells: each particle's fractions per global cell match the serial ones.
   int64_t particles = 0, entries = 0;
-  ASSERT_EQ(vfe_mpi_weights_size(e, &particles, &entries), VFE_OK);
+  ASSERT_EQ(vfe_weights_size(e, &particles, &entries), VFE_OK);
   EXPECT_EQ(particles, int64_t(np));
   std::vector<int64_t> offsets(np + 1), cells(static_cast<std::size_t>(entries));
   std::vector<double> fractions(static_cast<std::size_t>(entries));
-  ASSERT_EQ(vfe_mpi_weights(e, offsets.data(), cells.data(), fractions.data()), VFE_OK);
+  ASSERT_EQ(vfe_weights(e, offsets.data(), cells.data(), fractions.data()), VFE_OK);
   const vfe::Engine::WeightsSize ws = serial.weights_size();
   std::vector<int64_t> so(static_cast<std::size_t>(ws.particles + 1)), sc(static_cast<std::size_t>(ws.entries));
   std::vector<double> sf(static_cast<std::size_t>(ws.entries));
@@ -330,7 +330,7 @@ TEST(DistributedPolyMesh, DepositInterpolateWeightsAndVoidFractionEqualSerial) {
   }
   EXPECT_EQ(max_over_ranks(double(mismatched)), 0) << "particles whose cells differ from the serial engine's";
   EXPECT_LE(max_over_ranks(worst), 1e-12);
-  vfe_mpi_destroy(e);
+  vfe_destroy(e);
 }
 
 TEST(DistributedPolyMesh, RoutedParticlesEqualSerial) {
@@ -349,28 +349,28 @@ TEST(DistributedPolyMesh, RoutedParticlesEqualSerial) {
     given.radii.push_back(scene.radii[i]);
     given.ids.push_back(scene.ids[i]);
   }
-  vfe_mpi_engine* e = nullptr;
-  ASSERT_EQ(vfe_mpi_create_polymesh(MPI_COMM_WORLD, my_folder(mesh).c_str(), &e), VFE_OK) << vfe_mpi_last_error(nullptr);
-  ASSERT_EQ(vfe_mpi_configure(e, "method=pmm"), VFE_OK);
+  vfe_engine* e = nullptr;
+  ASSERT_EQ(vfe_mpi_create_polymesh(MPI_COMM_WORLD, my_folder(mesh).c_str(), &e), VFE_OK) << vfe_last_error(nullptr);
+  ASSERT_EQ(vfe_configure(e, "method=pmm"), VFE_OK);
   int64_t n = 0;
   double *centres = nullptr, *radii = nullptr;
   int64_t* ids = nullptr;
   ASSERT_EQ(vfe_mpi_route_particles(e, int64_t(given.radii.size()), given.centres.data(), given.radii.data(),
                                     given.ids.data(), &n, &centres, &radii, &ids),
             VFE_OK)
-      << vfe_mpi_last_error(e);
+      << vfe_last_error(e);
   EXPECT_EQ(sum_over_ranks(double(n)), double(scene.size()));
   serial.configure("method=pmm");
   std::vector<double> expected(static_cast<std::size_t>(serial.cell_count()));
   serial.compute(view(scene.centres.data(), scene.radii.data(), scene.ids.data(), int64_t(scene.size())), expected);
   std::vector<double> field(cell_ids.size());
   const vfe_particles p = view(centres, radii, ids, n);
-  EXPECT_EQ(vfe_mpi_compute_particles(e, &p, field.data()), VFE_OK) << vfe_mpi_last_error(e);
+  EXPECT_EQ(vfe_compute_particles(e, &p, field.data()), VFE_OK) << vfe_last_error(e);
   EXPECT_LE(max_difference(field, cell_ids, expected), 1e-12 * scene.largest_volume());
   std::free(centres);
   std::free(radii);
   std::free(ids);
-  vfe_mpi_destroy(e);
+  vfe_destroy(e);
 }
 
 TEST(DistributedPolyMesh, ParticleOnTheWrongRankIsRefusedEverywhere) {
@@ -395,13 +395,13 @@ TEST(DistributedPolyMesh, ParticleOnTheWrongRankIsRefusedEverywhere) {
     l.radii.push_back(0.001);
     l.ids.push_back(-7);
   }
-  vfe_mpi_engine* e = nullptr;
-  ASSERT_EQ(vfe_mpi_create_polymesh(MPI_COMM_WORLD, my_folder(mesh).c_str(), &e), VFE_OK) << vfe_mpi_last_error(nullptr);
-  ASSERT_EQ(vfe_mpi_configure(e, "method=exact"), VFE_OK);
+  vfe_engine* e = nullptr;
+  ASSERT_EQ(vfe_mpi_create_polymesh(MPI_COMM_WORLD, my_folder(mesh).c_str(), &e), VFE_OK) << vfe_last_error(nullptr);
+  ASSERT_EQ(vfe_configure(e, "method=exact"), VFE_OK);
   std::vector<double> field(cell_ids.size(), 42.0);
   const vfe_particles p = view(l.centres.data(), l.radii.data(), l.ids.data(), int64_t(l.radii.size()));
-  EXPECT_EQ(vfe_mpi_compute_particles(e, &p, field.data()), VFE_ERROR_INVALID_ARGUMENT);
-  const std::string message = vfe_mpi_last_error(e);
+  EXPECT_EQ(vfe_compute_particles(e, &p, field.data()), VFE_ERROR_INVALID_ARGUMENT);
+  const std::string message = vfe_last_error(e);
   EXPECT_NE(message.find("(id -7)"), std::string::npos) << message;
   EXPECT_NE(message.find("owned by rank 1"), std::string::npos) << message;
   EXPECT_TRUE(std::all_of(field.begin(), field.end(), [](double v) { return v == 42.0; })) << "output was written";
@@ -412,8 +412,8 @@ TEST(DistributedPolyMesh, ParticleOnTheWrongRankIsRefusedEverywhere) {
     l.ids.pop_back();
   }
   const vfe_particles q = view(l.centres.data(), l.radii.data(), l.ids.data(), int64_t(l.radii.size()));
-  EXPECT_EQ(vfe_mpi_compute_particles(e, &q, field.data()), VFE_OK) << vfe_mpi_last_error(e);
-  vfe_mpi_destroy(e);
+  EXPECT_EQ(vfe_compute_particles(e, &q, field.data()), VFE_OK) << vfe_last_error(e);
+  vfe_destroy(e);
 }
 
 TEST(DistributedPolyMesh, ArraysFormEqualsFolderForm) {
@@ -447,38 +447,38 @@ TEST(DistributedPolyMesh, ArraysFormEqualsFolderForm) {
   a.cell_ids = cell_ids.data();
   a.n_coupled_faces = int64_t(coupled.size());
   a.coupled_faces = coupled.data();
-  vfe_mpi_engine *from_arrays = nullptr, *from_folder = nullptr;
-  ASSERT_EQ(vfe_mpi_create_polymesh_arrays(MPI_COMM_WORLD, &a, &from_arrays), VFE_OK) << vfe_mpi_last_error(nullptr);
+  vfe_engine *from_arrays = nullptr, *from_folder = nullptr;
+  ASSERT_EQ(vfe_mpi_create_polymesh_arrays(MPI_COMM_WORLD, &a, &from_arrays), VFE_OK) << vfe_last_error(nullptr);
   ASSERT_EQ(vfe_mpi_create_polymesh(MPI_COMM_WORLD, my_folder(mesh).c_str(), &from_folder), VFE_OK);
   const Scene scene = scenes(mesh, serial)[0];
   const Local l = my_particles(scene, serial, cell_ids);
   const vfe_particles p = view(l.centres.data(), l.radii.data(), l.ids.data(), int64_t(l.radii.size()));
   std::vector<double> f1(cell_ids.size()), f2(cell_ids.size());
-  for (vfe_mpi_engine* e : {from_arrays, from_folder}) ASSERT_EQ(vfe_mpi_configure(e, "method=pmm deterministic=1"), VFE_OK);
-  ASSERT_EQ(vfe_mpi_compute_particles(from_arrays, &p, f1.data()), VFE_OK) << vfe_mpi_last_error(from_arrays);
-  ASSERT_EQ(vfe_mpi_compute_particles(from_folder, &p, f2.data()), VFE_OK);
+  for (vfe_engine* e : {from_arrays, from_folder}) ASSERT_EQ(vfe_configure(e, "method=pmm deterministic=1"), VFE_OK);
+  ASSERT_EQ(vfe_compute_particles(from_arrays, &p, f1.data()), VFE_OK) << vfe_last_error(from_arrays);
+  ASSERT_EQ(vfe_compute_particles(from_folder, &p, f2.data()), VFE_OK);
   EXPECT_EQ(max_over_ranks(f1 == f2 ? 0.0 : 1.0), 0.0) << "the arrays form differs from the folder form";
   // A coupled face that is internal is refused on every rank, with the reason.
   int64_t internal_face = 0;
   a.coupled_faces = &internal_face;
   a.n_coupled_faces = g_rank == 0 ? 1 : int64_t(coupled.size());
   if (g_rank != 0) a.coupled_faces = coupled.data();
-  vfe_mpi_engine* bad = nullptr;
+  vfe_engine* bad = nullptr;
   EXPECT_EQ(vfe_mpi_create_polymesh_arrays(MPI_COMM_WORLD, &a, &bad), VFE_ERROR_INVALID_ARGUMENT);
   EXPECT_EQ(bad, nullptr);
-  EXPECT_NE(std::string(vfe_mpi_last_error(nullptr)).find("is not a boundary face"), std::string::npos)
-      << vfe_mpi_last_error(nullptr);
-  vfe_mpi_destroy(from_arrays);
-  vfe_mpi_destroy(from_folder);
+  EXPECT_NE(std::string(vfe_last_error(nullptr)).find("is not a boundary face"), std::string::npos)
+      << vfe_last_error(nullptr);
+  vfe_destroy(from_arrays);
+  vfe_destroy(from_folder);
 }
 
 TEST(DistributedPolyMesh, MissingFolderIsRefusedEverywhere) {
-  vfe_mpi_engine* e = nullptr;
+  vfe_engine* e = nullptr;
   const std::string dir = g_rank == g_size - 1 ? kData + "no_such_processor" : my_folder(kMeshes[0]);
   EXPECT_EQ(vfe_mpi_create_polymesh(MPI_COMM_WORLD, dir.c_str(), &e), VFE_ERROR_IO);
   EXPECT_EQ(e, nullptr);
-  EXPECT_NE(std::string(vfe_mpi_last_error(nullptr)).find("no_such_processor"), std::string::npos)
-      << vfe_mpi_last_error(nullptr);
+  EXPECT_NE(std::string(vfe_last_error(nullptr)).find("no_such_processor"), std::string::npos)
+      << vfe_last_error(nullptr);
 }
 
 }  // namespace

@@ -2,17 +2,46 @@
  * ranks. C99 API.
  *
  * Each rank owns a block of cells of one global grid (or its processor mesh of a
- * decomposed polyMesh) and is given the particles whose centres lie in its cells. The rank keeps an ordinary vfe engine on its block plus a
- * ghost layer as wide as the largest particle footprint needs; after the local compute the
- * ghost cells' deposits are summed into their owners (a reverse halo sum among the actual
- * neighbours only). Owned-cell fields then equal the serial engine's on the undecomposed
- * grid given the same particles with the same ids.
+ * decomposed polyMesh) and is given the particles whose centres lie in its cells. The rank
+ * keeps an ordinary vfe engine on its block plus a ghost layer as wide as the largest
+ * particle footprint needs; after the local compute the ghost cells' deposits are summed
+ * into their owners (a reverse halo sum among the actual neighbours only). Owned-cell
+ * fields then equal the serial engine's on the undecomposed grid given the same particles
+ * with the same ids.
  *
- * Deviation from the distributed-mesh contract (docs/scaling.md): vfe_engine is opaque inside libvfe, which stays free of MPI, so
- * the distributed engine is its own handle, vfe_mpi_engine, with vfe_mpi_* equivalents of
- * the vfe_* calls. Functions marked "collective" must be called by every rank of the
- * communicator, in the same order, with the same options; their status is the same on
- * every rank (a failure on one rank fails the call everywhere, with that rank's message).
+ * The creators below return an ordinary vfe_engine: every function of vfe.h works on it.
+ * Collective (every rank of the communicator calls it, in the same order, with the same
+ * options): vfe_configure, vfe_compute, vfe_compute_particles, vfe_compute_shapes,
+ * vfe_add_shape, vfe_deposit, vfe_interpolate, vfe_destroy, and here the creators and
+ * vfe_mpi_route_particles. A collective call has the same status on every rank: a failure
+ * on one rank (a bad argument, a particle on the wrong rank) fails it everywhere, and
+ * vfe_last_error gives that rank's message, prefixed "rank N: " when there are several
+ * ranks. The other calls are local to the rank and need no partner:
+ *   vfe_cell_count, vfe_cell_volumes, vfe_void_fraction: the rank's owned cells, in local
+ *     order (below);
+ *   vfe_weights_size, vfe_weights: with weights=1, per particle of this rank's last compute
+ *     its cells as global cell indices i + nx*(j + ny*k) (periodic images wrapped; on a
+ *     polyMesh the undecomposed mesh's cell, cellProcAddressing) and fractions (CSR);
+ *   vfe_last_report: the last compute over all ranks (sums; particle_grid_min/max over
+ *     ranks);
+ *   vfe_last_report_value: the vfe_report fields (over all ranks) and, for this rank,
+ *     "ghost_width" (cells, largest over axes; on a polyMesh the width as a length),
+ *     "ghost_bytes" (polyMesh: bytes of ghost geometry received at the last rebuild of the
+ *     layer), "neighbours" (ranks exchanged with, itself included when it is its own
+ *     periodic neighbour), "local_cells" (owned + ghost), "halo_values" (doubles this rank
+ *     sends in one reverse halo sum), "halo_bytes" (bytes sent in it), and of the last
+ *     compute on this rank "local_seconds" (wall time of the local engine's compute),
+ *     "local_cpu_seconds" (its CPU time on the calling thread; with threads=1 its whole
+ *     cost) and "exchange_seconds" (wall time of the halo sum and the report's allreduce);
+ *     other keys answer VFE_ERROR_INVALID_ARGUMENT;
+ *   vfe_set_log_callback, vfe_last_error.
+ * Differences from an engine on one mesh: vfe_configure takes periodic= for the global grid
+ * (a polyMesh refuses it, as the serial engine does) and answers VFE_ERROR_UNSUPPORTED for
+ * smoothing_length > 0 (a diffusion over the whole mesh); vfe_deposit and vfe_interpolate
+ * sum and fetch across ranks (values are this rank's particles of the last compute,
+ * cell_field and out its owned cells); spheres only: vfe_add_shape and shape ids answer
+ * VFE_ERROR_UNSUPPORTED. The ghost layer is widened (on every rank) when a particle's
+ * footprint needs it.
  *
  * Particle contract: a particle is given on exactly one rank, the one whose block holds
  * the cell floor((centre - origin) / spacing) of its centre, after wrapping periodic axes
@@ -21,7 +50,8 @@
  * host whose particles are elsewhere sends each to that rank (vfe_mpi_route_particles does
  * it for plain arrays). A particle on the wrong rank fails the compute with
  * VFE_ERROR_INVALID_ARGUMENT naming it. orientation=random rotates by the particle ids
- * (vfe_particles.ids), so method=pmm with orientation=random requires ids.
+ * (vfe_particles.ids), so method=pmm with orientation=random requires ids
+ * (vfe_compute_particles; vfe_compute passes none).
  *
  * On a polyMesh the owner of a centre is the rank owning the cell that holds it; a centre in
  * no cell of the whole mesh belongs to the rank owning the cell whose centre is nearest.
@@ -30,7 +60,7 @@
  * outside=nearest, docs/scaling.md); only ranks whose bounding boxes come that close
  * exchange cells.
  *
- * Spheres only (no shapes). Not thread-safe per handle, like vfe_engine.
+ * Not thread-safe per engine, like any vfe_engine.
  */
 #ifndef VFE_VFE_MPI_H
 #define VFE_VFE_MPI_H
@@ -42,17 +72,15 @@
 extern "C" {
 #endif
 
-typedef struct vfe_mpi_engine vfe_mpi_engine; /* opaque */
-
 /** Collective. Rank's block [block_lo, block_hi) of cell indices of the global grid of
  *  global_cells cells of size spacing from origin; the blocks of all ranks tile the grid
  *  without overlap (checked). Local cell (i, j, k) (global indices) has index
  *  (i-lo0) + (hi0-lo0)*((j-lo1) + (hi1-lo1)*(k-lo2)). The communicator is duplicated;
- *  comm may be freed afterwards. On failure *out is untouched and vfe_mpi_last_error(NULL)
- *  says why. */
+ *  comm may be freed afterwards. On failure *out is untouched and vfe_last_error(NULL)
+ *  says why (on every rank). */
 VFE_API vfe_status vfe_mpi_create_cartesian(MPI_Comm comm, const double origin[3], const double spacing[3],
                                             const int64_t global_cells[3], const int64_t block_lo[3],
-                                            const int64_t block_hi[3], vfe_mpi_engine** out);
+                                            const int64_t block_hi[3], vfe_engine** out);
 
 /** Collective. Each rank passes its processorN folder as decomposePar writes it (the case
  *  folder processorN, its constant or its polyMesh folder): points, faces, owner,
@@ -61,9 +89,9 @@ VFE_API vfe_status vfe_mpi_create_cartesian(MPI_Comm comm, const double origin[3
  *  (plain or .gz, ASCII or binary). Local cells keep the processor mesh's order. On a
  *  communicator of one rank an undecomposed case folder is taken as it is. Every rank must
  *  hold at least one cell; cyclic patches are refused (VFE_ERROR_UNSUPPORTED). The
- *  communicator is duplicated. On failure *out is untouched and vfe_mpi_last_error(NULL)
+ *  communicator is duplicated. On failure *out is untouched and vfe_last_error(NULL)
  *  says why (on every rank). */
-VFE_API vfe_status vfe_mpi_create_polymesh(MPI_Comm comm, const char* processor_dir, vfe_mpi_engine** out);
+VFE_API vfe_status vfe_mpi_create_polymesh(MPI_Comm comm, const char* processor_dir, vfe_engine** out);
 
 /** A rank's part of a decomposed polyMesh in the host's memory: its processor mesh ordered
  *  as vfe_create_polymesh_arrays takes it (internal faces first, normal from owner to
@@ -93,76 +121,22 @@ typedef struct vfe_mpi_polymesh {
 } vfe_mpi_polymesh;
 
 /** Collective. As vfe_mpi_create_polymesh, from the host's memory. */
-VFE_API vfe_status vfe_mpi_create_polymesh_arrays(MPI_Comm comm, const vfe_mpi_polymesh* mesh, vfe_mpi_engine** out);
-
-/** Collective. Frees the handle; NULL is a no-op (on every rank, or on none). */
-VFE_API void vfe_mpi_destroy(vfe_mpi_engine* e);
-
-/** Collective. vfe_configure's keys and values; periodic= applies to the global grid (a
- *  polyMesh refuses it, as the serial engine does).
- *  smoothing_length > 0 (a diffusion over the whole mesh) answers VFE_ERROR_UNSUPPORTED. */
-VFE_API vfe_status vfe_mpi_configure(vfe_mpi_engine* e, const char* options);
-
-/** Owned cells of this rank, or -1 when e is NULL. */
-VFE_API int64_t vfe_mpi_cell_count(const vfe_mpi_engine* e);
-/** Volume of every owned cell. */
-VFE_API vfe_status vfe_mpi_cell_volumes(const vfe_mpi_engine* e, double* out);
+VFE_API vfe_status vfe_mpi_create_polymesh_arrays(MPI_Comm comm, const vfe_mpi_polymesh* mesh, vfe_engine** out);
 
 /** Rank that owns the cell holding a particle centred at centre (the particle contract). On a
  *  polyMesh only centres in the rank's own or ghost cells are known (else
- *  VFE_ERROR_INVALID_ARGUMENT). */
-VFE_API vfe_status vfe_mpi_owner(const vfe_mpi_engine* e, const double centre[3], int* rank);
-
-/** Collective. Solid volume of this rank's particles' deposits summed over all ranks, per
- *  owned cell (overwritten). vfe_mpi_compute passes no ids (so not for pmm with
- *  orientation=random); vfe_mpi_compute_particles takes the host's layout and ids. The
- *  ghost layer is widened (on every rank) when a particle's footprint needs it. */
-VFE_API vfe_status vfe_mpi_compute(vfe_mpi_engine* e, int64_t n, const double* centres, const double* radii,
-                                   const double* orientations, double* solid_volume);
-VFE_API vfe_status vfe_mpi_compute_particles(vfe_mpi_engine* e, const vfe_particles* p, double* solid_volume);
-
-/** Void fraction 1 - Vs/V of the owned cells after the last compute (clipped at alpha_min). */
-VFE_API vfe_status vfe_mpi_void_fraction(const vfe_mpi_engine* e, double* out);
-
-/** Collective. With weights=1: out[c*k + j] = sum over every rank's particles p of
- *  fraction_pc * values[p*k + j] for the owned cells c; values are this rank's particles of
- *  the last compute. Overwrites out. */
-VFE_API vfe_status vfe_mpi_deposit(vfe_mpi_engine* e, int32_t components, const double* values, double* out);
-/** Collective. With weights=1: per particle of this rank's last compute, the fraction-weighted
- *  mean of cell_field (owned cells, k per cell) over its cells, ghost values fetched from
- *  their owners (a forward halo exchange). */
-VFE_API vfe_status vfe_mpi_interpolate(vfe_mpi_engine* e, int32_t components, const double* cell_field,
-                                       double* out);
-/** With weights=1: per particle of this rank's last compute its cells as global cell
- *  indices i + nx*(j + ny*k) (periodic images wrapped; on a polyMesh the undecomposed
- *  mesh's cell, cellProcAddressing) and fractions (CSR). */
-VFE_API vfe_status vfe_mpi_weights_size(const vfe_mpi_engine* e, int64_t* n_particles, int64_t* n_entries);
-VFE_API vfe_status vfe_mpi_weights(const vfe_mpi_engine* e, int64_t* offsets, int64_t* cells, double* fractions);
-
-/** Report of the last compute over all ranks (sums; particle_grid_min/max over ranks). */
-VFE_API vfe_status vfe_mpi_last_report(const vfe_mpi_engine* e, vfe_report* out);
-/** A fact by name: the vfe_report fields (over all ranks) and, for this rank, "ghost_width"
- *  (cells, largest over axes; on a polyMesh the width as a length), "ghost_bytes" (polyMesh:
- *  bytes of ghost geometry received at the last rebuild of the layer), "neighbours" (ranks
- *  exchanged with, itself included when it
- *  is its own periodic neighbour), "local_cells" (owned + ghost), "halo_values" (doubles
- *  this rank sends in one reverse halo sum), "halo_bytes" (bytes sent in it), and of the last
- *  compute on this rank "local_seconds" (wall time of the local engine's compute),
- *  "local_cpu_seconds" (its CPU time on the calling thread; with threads=1 its whole cost)
- *  and "exchange_seconds" (wall time of the halo sum and the report's allreduce). */
-VFE_API vfe_status vfe_mpi_last_report_value(const vfe_mpi_engine* e, const char* key, double* out);
-
-/** Message of the last failure on e ("" if none); for NULL, of the last failed creation. */
-VFE_API const char* vfe_mpi_last_error(const vfe_mpi_engine* e);
-VFE_API vfe_status vfe_mpi_set_log_callback(vfe_mpi_engine* e, vfe_log_fn fn, void* user);
+ *  VFE_ERROR_INVALID_ARGUMENT). An engine not made by the creators above answers
+ *  VFE_ERROR_INVALID_ARGUMENT. */
+VFE_API vfe_status vfe_mpi_owner(const vfe_engine* e, const double centre[3], int* rank);
 
 /** Collective. Sends every particle to the rank that owns it (vfe_mpi_owner; on a polyMesh
  *  a centre beyond the rank's cells and ghosts is looked up on every rank, the centres
  *  gathered everywhere: meant for the first hand-over, not every step). In: n packed
  *  particles (centres 3n, radii n, ids n). Out: *n_out particles in arrays allocated with
  *  malloc (the caller frees them), in the order of their source rank, then input order.
- *  On failure nothing is allocated. */
-VFE_API vfe_status vfe_mpi_route_particles(const vfe_mpi_engine* e, int64_t n, const double* centres,
+ *  On failure nothing is allocated. An engine not made by the creators above answers
+ *  VFE_ERROR_INVALID_ARGUMENT. */
+VFE_API vfe_status vfe_mpi_route_particles(const vfe_engine* e, int64_t n, const double* centres,
                                            const double* radii, const int64_t* ids, int64_t* n_out,
                                            double** centres_out, double** radii_out, int64_t** ids_out);
 
