@@ -128,7 +128,7 @@ struct Engine::Impl {
   const ParticleTemplate divided = kernels::make_divided_template();
   Report report{};
   bool have_field = false;
-  double deterministic_volume_bound = 0;  ///< set_deterministic_volume
+  double deterministic_volume_bound = 0;  ///< of set_deterministic_radius's sphere
   // smoothing_length > 0: the smoothed field (what the host sees) and the mesh's face graph.
   std::vector<double> smoothed;
   std::unique_ptr<detail::FaceGraph> faces;
@@ -400,7 +400,8 @@ struct Engine::Impl {
   /// direct on a Cartesian grid with spheres and private fields: validation, locate and the
   /// add in one pass over the particles, so direct costs little more than reading them.
   bool fuses_direct(const ParticleArrays& pa, const detail::AccumulationPlan& pl) const {
-    return opts.method == Method::direct && mesh.kind() == MeshKind::cartesian && !pa.shape_ids &&
+    return opts.method == Method::direct && mesh.kind() == MeshKind::cartesian && !mesh.cartesian()->is_block() &&
+           !pa.shape_ids &&
            opts.orientation != Orientation::given && pl.strategy == Accumulation::privatised && !pl.uses_blocks() &&
            !pl.touched_only;
   }
@@ -1256,8 +1257,8 @@ void Engine::deposit_fixed(std::int32_t components, std::span<const double> valu
   }, values);
 }
 
-void Engine::set_deterministic_volume(double largest_particle_volume) {
-  impl_->deterministic_volume_bound = largest_particle_volume > 0 ? largest_particle_volume : 0;
+void Engine::set_deterministic_radius(double largest_sphere_radius) {
+  impl_->deterministic_volume_bound = largest_sphere_radius > 0 ? sphere_volume(largest_sphere_radius) : 0;
 }
 
 Engine::FixedField Engine::fixed_solid() const {

@@ -17,11 +17,15 @@
 namespace vfe {
 
 /// A uniform Cartesian grid: cells[d] cells of size spacing[d] from origin;
-/// cell (i, j, k) has index i + nx*(j + ny*k).
+/// cell (i, j, k) has index i + nx*(j + ny*k). With first_cell, the grid is the block of
+/// cells [first_cell, first_cell + cells) of the grid from origin: cell (i, j, k)'s lower
+/// corner is origin + (first_cell + (i, j, k)) * spacing, computed as that larger grid
+/// computes it, so a block's deposits equal the larger grid's bit for bit (libvfe_mpi).
 struct CartesianGridSpec {
   std::array<double, 3> origin{0, 0, 0};
   std::array<double, 3> spacing{1, 1, 1};
   std::array<std::int64_t, 3> cells{1, 1, 1};
+  std::array<std::int64_t, 3> first_cell{0, 0, 0};
 };
 
 /// An OpenFOAM polyMesh: the case folder, its constant folder or the polyMesh folder
@@ -175,9 +179,9 @@ class VFE_API Engine {
   void deposit_fixed(std::int32_t components, std::span<const double> values, std::span<const int> exponents,
                      std::span<FixedSum> out) const;
   /// deterministic=1 takes its unit from the largest particle volume of a compute; with a
-  /// bound set here, from the larger of the two (0: none). Every rank of a distributed mesh
-  /// sets the largest volume of all ranks, so all sum in the same unit.
-  void set_deterministic_volume(double largest_particle_volume);
+  /// radius set here, from at least a sphere of that radius (0: none). Every rank of a
+  /// distributed mesh sets the largest radius of all ranks, so all sum in the same unit.
+  void set_deterministic_radius(double largest_sphere_radius);
   /// After a compute with deterministic=1: the solid volume per cell in fixed point.
   struct FixedField {
     std::span<const FixedSum> sums;
