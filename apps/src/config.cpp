@@ -323,8 +323,15 @@ FrameSeriesSpec frame_series(const Ctx& ctx, const YAML::Node& p, const fs::path
     if (f.empty()) ctx.fail(n, "particles: files: an entry is empty");
     s.files.push_back(fs::path(f).is_absolute() ? f : (base_dir / f).lexically_normal().string());
   };
+  if (const YAML::Node cmd = p["command"]) {
+    s.command = scalar(ctx, cmd, "particles: command");
+    s.command_folder = base_dir;
+    if (s.command.empty()) ctx.fail(cmd, "particles: command is empty; give the shell command that prints the frames");
+  }
   const YAML::Node files = p["files"] ? p["files"] : p["file"];
-  if (files.IsSequence()) {
+  if (!s.command.empty()) {
+    // a live source: no files
+  } else if (files.IsSequence()) {
     if (files.size() == 0) ctx.fail(files, "particles: files is an empty list; list dumps or give a glob");
     for (std::size_t i = 0; i < files.size(); ++i) add(files[i]);
   } else {
@@ -338,6 +345,9 @@ FrameSeriesSpec frame_series(const Ctx& ctx, const YAML::Node& p, const fs::path
     } else if (f.IsSequence() && f.size() == 2) {
       s.first_frame = integer(ctx, f[0], "particles: frames: first");
       s.last_frame = integer(ctx, f[1], "particles: frames: last");
+      if (!s.command.empty() && (s.first_frame < 0 || (s.last_frame < s.first_frame && s.last_frame != -1)))
+        ctx.fail(f, "particles: frames of a command are counted as they come: give [first, last] with 0 <= first "
+                    "<= last, or last = -1 for every frame from first on");
     } else {
       ctx.fail(f, what);
     }
@@ -434,17 +444,21 @@ SceneConfig parse_root(const Ctx& ctx, const YAML::Node& root, const fs::path& b
     }
     c.generate = gen;
   } else if (p.IsMap()) {
-    check_keys(ctx, p, {"file", "files", "frame", "frames", "timesteps", "dem_dt", "shape_by_type", "generate"},
+    check_keys(ctx, p,
+               {"file", "files", "command", "frame", "frames", "timesteps", "dem_dt", "shape_by_type", "generate"},
                "particles");
+    if (p["command"] && (p["file"] || p["files"] || p["frame"]))
+      ctx.fail(p["command"], "particles: 'command' reads the frames from the command's output; give no 'file', "
+                             "'files' or 'frame' with it");
     if (p["file"] && p["files"])
       ctx.fail(p, "particles: give either 'file' (one dump) or 'files' (a glob or a list of dumps), not both");
-    if (!p["file"] && !p["files"])
-      ctx.fail(p, "particles has no 'file' key; add file: PATH_TO_DUMP, files: \"dir/*.dump.gz\" (a series) or "
-                  "generate: {...}");
+    if (!p["file"] && !p["files"] && !p["command"])
+      ctx.fail(p, "particles has no 'file' key; add file: PATH_TO_DUMP, files: \"dir/*.dump.gz\" (a series), "
+                  "command: \"...\" (frames from a command's output) or generate: {...}");
     if (p["frame"] && (p["frames"] || p["files"]))
       ctx.fail(p["frame"], "particles: 'frame' picks one frame of one file; a series takes 'frames: all' or "
                            "'frames: [first, last]' (and 'timesteps: [from, to]')");
-    if (p["files"] || p["frames"]) c.series = frame_series(ctx, p, base_dir);
+    if (p["files"] || p["frames"] || p["command"]) c.series = frame_series(ctx, p, base_dir);
     else if (p["timesteps"] || p["dem_dt"])
       ctx.fail(p, "particles: 'timesteps' and 'dem_dt' belong to a series of frames; add 'frames: all' (every "
                   "frame of the file) or use 'files:'");

@@ -72,11 +72,16 @@ struct GenerateSpec {
 };
 
 /// A scene whose particles are a series of frames, computed one after another. The
-/// frames are every frame of the listed dumps (globs expanded), in TIMESTEP order; timesteps
-/// keeps those in [from, to], then frames keeps the indices [first, last] of what is left.
+/// frames are every frame of the listed dumps (globs expanded), in TIMESTEP order, or the
+/// frames a command prints, as they come; timesteps keeps those in [from, to], then frames
+/// keeps the indices [first, last] of what is left.
 struct FrameSeriesSpec {
   /// Dump paths or glob patterns (* ? [...]), resolved against the config's folder.
   std::vector<std::string> files;
+  /// Instead of files: a shell command, run in the config's folder, that prints LIGGGHTS/
+  /// LAMMPS text dump frames on its standard output (e.g. the live LIGGGHTS driver).
+  std::string command;
+  std::filesystem::path command_folder;  ///< where the command runs: the config's folder
   std::int64_t first_frame = 0;  ///< 0-based index in the ordered series; negative counts from the end
   std::int64_t last_frame = -1;  ///< inclusive; -1 = the last frame
   std::optional<std::int64_t> from_timestep, to_timestep;  ///< inclusive bounds of the timesteps kept

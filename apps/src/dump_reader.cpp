@@ -6,6 +6,7 @@
 #include <cerrno>
 #include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <limits>
@@ -81,6 +82,7 @@ std::string join(const std::vector<std::string>& v) {
 struct DumpReader::Impl {
   std::string path;
   gzFile file = nullptr;
+  std::FILE* stream = nullptr;  // instead of file: plain text from a stream this reader does not own
   std::string line;
   std::int64_t line_no = 0;  // number of the line in `line`
   bool pending = false;      // `line` was peeked and not yet consumed
@@ -98,6 +100,22 @@ struct DumpReader::Impl {
     throw DumpError(path + ": " + what);
   }
 
+  /// The gzip stream reports an error (not the end of the file).
+  bool read_failed() const {
+    int errnum = Z_OK;
+    gzerror(file, &errnum);
+    return errnum != Z_OK && errnum != Z_STREAM_END;
+  }
+
+  /// What the last read failure was.
+  std::string read_error() const {
+    if (stream) return std::strerror(errno);
+    int errnum = Z_OK;
+    const char* msg = gzerror(file, &errnum);
+    if (errnum == Z_ERRNO) return std::strerror(errno);
+    return msg && *msg ? msg : "read error";
+  }
+
   /// Reads one physical line into `line`; false at the end of the file.
   bool read_line() {
     if (pending) {
@@ -108,17 +126,13 @@ struct DumpReader::Impl {
     line.clear();
     bool got = false;
     for (;;) {
-      char* r = gzgets(file, buffer.data(), static_cast<int>(buffer.size()));
+      char* r = stream ? std::fgets(buffer.data(), static_cast<int>(buffer.size()), stream)
+                       : gzgets(file, buffer.data(), static_cast<int>(buffer.size()));
       if (!r) {
-        int errnum = Z_OK;
-        const char* msg = gzerror(file, &errnum);
-        if (errnum != Z_OK && errnum != Z_STREAM_END) {
-          const std::string m = (errnum == Z_ERRNO) ? std::string(std::strerror(errno))
-                                                    : std::string(msg ? msg : "unknown error");
-          fail(line_no + 1, "cannot read past this line (" + m +
+        if (stream ? std::ferror(stream) != 0 : read_failed())
+          fail(line_no + 1, "cannot read past this line (" + read_error() +
                                 "); the file is truncated or damaged: re-write it, or for a "
                                 "gzip file check it with `gzip -t`");
-        }
         at_eof = true;
         break;
       }
@@ -127,17 +141,15 @@ struct DumpReader::Impl {
       line.append(r, len);
       if (len > 0 && r[len - 1] == '\n') break;
       if (len + 1 < buffer.size()) {
-        // Last line without a newline: gzgets stops at the end of the file.
-        if (gzeof(file)) break;
+        // Last line without a newline: the read stops at the end of the file.
+        if (stream ? std::feof(stream) != 0 : gzeof(file) != 0) break;
       }
     }
     if (!got) return false;
     if (line.empty() || line.back() != '\n') {
       // A last line without a line end: complete, unless the gzip stream was cut short.
-      int errnum = Z_OK;
-      const char* msg = gzerror(file, &errnum);
-      if (errnum != Z_OK && errnum != Z_STREAM_END)
-        fail(line_no + 1, std::string("the file ends in the middle of this line (") + (msg ? msg : "read error") +
+      if (!stream && read_failed())
+        fail(line_no + 1, "the file ends in the middle of this line (" + read_error() +
                               "); the file is truncated or damaged: re-write it, or for a gzip file "
                               "check it with `gzip -t`");
       // LIGGGHTS ends every line with a blank, LAMMPS with a line end: a last line that
@@ -301,6 +313,11 @@ DumpReader::DumpReader(std::string path) : impl_(std::make_unique<Impl>()), path
     throw DumpError(path_ + ": cannot open the file (" + why + "); check that it exists and is readable");
   }
   gzbuffer(impl_->file, 1 << 17);
+}
+
+DumpReader::DumpReader(std::FILE* stream, std::string name) : impl_(std::make_unique<Impl>()), path_(std::move(name)) {
+  impl_->path = path_;
+  impl_->stream = stream;
 }
 
 DumpReader::~DumpReader() = default;

@@ -5,6 +5,7 @@
 
 #include <array>
 #include <cstdint>
+#include <cstdio>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -61,6 +62,10 @@ class DumpReader {
  public:
   /// Opens the file (plain or gzip); throws DumpError if it cannot be read.
   explicit DumpReader(std::string path);
+  /// Reads plain text frames from an open stream (a pipe: each frame is returned as soon as
+  /// its last atom line has arrived), which the reader does not close; name stands for the
+  /// stream in messages.
+  DumpReader(std::FILE* stream, std::string name);
   ~DumpReader();
   DumpReader(const DumpReader&) = delete;
   DumpReader& operator=(const DumpReader&) = delete;

@@ -1,5 +1,6 @@
 #include "frame_series.hpp"
 
+#include "command_output.hpp"
 #include "dump_reader.hpp"
 
 #include <glob.h>
@@ -7,6 +8,8 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <optional>
+#include <stdexcept>
 #include <utility>
 
 namespace vfe::apps {
@@ -123,21 +126,141 @@ std::vector<SceneParticles> load_frame_series(const SceneConfig& c) {
 
   std::vector<SceneParticles> series;
   for (std::int64_t k = first; k <= last; ++k) series.push_back(std::move(frames[order[static_cast<std::size_t>(k)]]));
+  SeriesFrameCheck check;
   for (SceneParticles& p : series) {
-    if (p.ids.empty() != series.front().ids.empty())
-      throw DumpError(p.source_name + ": timestep " + std::to_string(p.timestep) + (p.ids.empty() ? " has no" : " has an") +
-                      " id column and the series' first frame (" + series.front().source_name +
-                      ") does not; dump every frame with the same columns");
-    if (!p.ids.empty()) {
-      order_by_id(p);
-    } else if (p.n != series.front().n) {
-      throw DumpError(p.source_name + ": timestep " + std::to_string(p.timestep) + " has " + std::to_string(p.n) +
-                      " particles, the series' first frame (" + series.front().source_name + ", timestep " +
-                      std::to_string(series.front().timestep) + ") has " + std::to_string(series.front().n) +
-                      "; without an id column particles cannot be matched between frames: dump the ids too");
-    }
+    check.admit(p);
+    check_coupling_velocities(c, p);
   }
   return series;
+}
+
+void SeriesFrameCheck::admit(SceneParticles& p) {
+  if (!first_) first_ = FirstFrame{!p.ids.empty(), p.n, p.timestep, p.source_name};
+  if (p.ids.empty() == first_->has_ids)
+    throw DumpError(p.source_name + ": timestep " + std::to_string(p.timestep) + (p.ids.empty() ? " has no" : " has an") +
+                    " id column and the series' first frame (" + first_->source_name +
+                    ") does not; dump every frame with the same columns");
+  if (!p.ids.empty()) {
+    order_by_id(p);
+  } else if (p.n != first_->n) {
+    throw DumpError(p.source_name + ": timestep " + std::to_string(p.timestep) + " has " + std::to_string(p.n) +
+                    " particles, the series' first frame (" + first_->source_name + ", timestep " +
+                    std::to_string(first_->timestep) + ") has " + std::to_string(first_->n) +
+                    "; without an id column particles cannot be matched between frames: dump the ids too");
+  }
+}
+
+namespace {
+
+/// Every frame of the dumps, loaded and ordered before the first is handed out.
+class FileFrames final : public FrameSource {
+ public:
+  explicit FileFrames(const SceneConfig& c) : frames_(load_frame_series(c)) {}
+  bool next(SceneParticles& frame) override {
+    if (next_ >= frames_.size()) return false;
+    frame = std::move(frames_[next_++]);
+    return true;
+  }
+  std::int64_t count() const override { return static_cast<std::int64_t>(frames_.size()); }
+  std::string description() const override { return std::to_string(frames_.size()) + " frame(s) from dump files"; }
+
+ private:
+  std::vector<SceneParticles> frames_;
+  std::size_t next_ = 0;
+};
+
+/// The frames a command prints, each handed out as soon as its last atom line has come.
+class CommandFrames final : public FrameSource {
+ public:
+  explicit CommandFrames(const SceneConfig& c)
+      : config_(c),
+        spec_(*c.series),
+        shape_volumes_(config_shape_volumes(c)),
+        output_(spec_.command, spec_.command_folder),
+        name_("command '" + spec_.command + "'"),
+        reader_(output_.stream(), "the output of " + name_) {}
+
+  bool next(SceneParticles& frame) override {
+    if (done_) return false;
+    DumpFrame f;
+    for (;;) {
+      bool got = false;
+      try {
+        got = reader_.next(f);
+      } catch (const DumpError& e) {
+        done_ = true;
+        output_.stop();
+        throw DumpError(std::string(e.what()) + " (" + after() + ")");
+      }
+      if (!got) return finish();
+      if (last_timestep_ && f.timestep <= *last_timestep_) {
+        done_ = true;
+        output_.stop();
+        throw DumpError(name_ + ": printed timestep " + std::to_string(f.timestep) + " after timestep " +
+                        std::to_string(*last_timestep_) + "; a live source must print its frames in time order, "
+                        "one per timestep (" + after() + ")");
+      }
+      last_timestep_ = f.timestep;
+      if ((spec_.from_timestep && f.timestep < *spec_.from_timestep) ||
+          (spec_.to_timestep && f.timestep > *spec_.to_timestep))
+        continue;
+      const std::int64_t index = kept_++;
+      if (index < spec_.first_frame) continue;
+      frame = particles_from_dump(config_, std::move(f), spec_.command, shape_volumes_);
+      frame.source_name = name_;
+      check_.admit(frame);
+      check_coupling_velocities(config_, frame);
+      ++delivered_;
+      // The frames asked for are in: the command is not needed any more.
+      if (spec_.last_frame >= 0 && index >= spec_.last_frame) {
+        done_ = true;
+        output_.stop();
+      }
+      return true;
+    }
+  }
+  std::int64_t count() const override { return -1; }
+  std::string description() const override {
+    return name_ + " (in " + (spec_.command_folder.empty() ? std::string(".") : spec_.command_folder.string()) + ")";
+  }
+
+ private:
+  std::string after() const {
+    return delivered_ == 0 ? "before any complete frame"
+                           : "after " + std::to_string(delivered_) + " complete frame(s), which were computed";
+  }
+
+  /// At the end of the output: the command must have ended well and printed a frame.
+  bool finish() {
+    done_ = true;
+    const std::string how = output_.wait();
+    if (!how.empty()) throw std::runtime_error(name_ + " " + how + " (" + after() + ")");
+    if (delivered_ == 0)
+      throw DumpError(name_ + ": ended without printing a frame" +
+                      (kept_ > 0 || last_timestep_ ? std::string(" in the timesteps and frames asked for") : "") +
+                      "; it must print LIGGGHTS/LAMMPS text dump frames (ITEM: TIMESTEP ...) on its standard "
+                      "output, e.g. vfe_liggghts --dump -");
+    return false;
+  }
+
+  const SceneConfig& config_;
+  FrameSeriesSpec spec_;
+  std::vector<double> shape_volumes_;
+  CommandOutput output_;
+  std::string name_;
+  DumpReader reader_;
+  SeriesFrameCheck check_;
+  std::optional<std::int64_t> last_timestep_;
+  std::int64_t kept_ = 0, delivered_ = 0;
+  bool done_ = false;
+};
+
+}  // namespace
+
+std::unique_ptr<FrameSource> open_frame_source(const SceneConfig& c) {
+  if (!c.series) throw ConfigError(c.source.string() + ": the particles are not a series of frames");
+  if (!c.series->command.empty()) return std::make_unique<CommandFrames>(c);
+  return std::make_unique<FileFrames>(c);
 }
 
 double frame_time(std::int64_t timestep, double dem_dt) {

@@ -9,6 +9,8 @@
 #include <cstdint>
 #include <filesystem>
 #include <limits>
+#include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -27,6 +29,42 @@ std::vector<std::filesystem::path> series_files(const FrameSeriesSpec& series, c
 /// ConfigError naming the file (and the timestep) at fault: two frames with one timestep, a
 /// repeated id, a count that changes without ids, no frame left by the ranges.
 std::vector<SceneParticles> load_frame_series(const SceneConfig& config);
+
+/// The checks every frame of a series passes, in series order: the same columns as the
+/// first frame; with ids, particles put in id order (a repeated id is an error); without,
+/// as many particles as the first frame. Throws DumpError naming the frame's source.
+class SeriesFrameCheck {
+ public:
+  void admit(SceneParticles& frame);
+
+ private:
+  struct FirstFrame {
+    bool has_ids;
+    std::int64_t n, timestep;
+    std::string source_name;
+  };
+  std::optional<FirstFrame> first_;
+};
+
+/// The frames of a series one at a time, in timestep order: every frame of the dumps
+/// (load_frame_series), or the frames a command prints on its standard output, each handed
+/// out as soon as it is complete (the command runs in the config's folder).
+class FrameSource {
+ public:
+  virtual ~FrameSource() = default;
+  /// The next frame, checked as SeriesFrameCheck and (coupling) for velocities; false after
+  /// the last. Throws DumpError, ConfigError or std::runtime_error naming the dump or the
+  /// command and what went wrong: a frame cut short, a command that failed or printed no
+  /// frame, timesteps out of order.
+  virtual bool next(SceneParticles& frame) = 0;
+  /// How many frames there are, or -1 when that is known only at the end (a command).
+  virtual std::int64_t count() const = 0;
+  /// Where the frames come from, for the log.
+  virtual std::string description() const = 0;
+};
+
+/// The series' source: its dumps, or its command (started here). Throws as FrameSource.
+std::unique_ptr<FrameSource> open_frame_source(const SceneConfig& config);
 
 /// A frame's time: timestep * dem_dt, or the timestep when dem_dt is 0 (not given).
 double frame_time(std::int64_t timestep, double dem_dt);

@@ -39,45 +39,6 @@ std::string g3(double v) {
   return buf;
 }
 
-/// Us per cell of the engine's last compute (weights=1): the deposit of velocity x volume over
-/// the deposit of volume, (0, 0, 0) where no solid is; 3 values per cell.
-std::vector<double> particle_velocity_field(const vfe::Engine& engine, const SceneParticles& frame,
-                                            std::size_t ncells) {
-  const std::vector<double> volume = frame.volumes();
-  std::vector<double> values(4 * volume.size());
-  for (std::size_t p = 0; p < volume.size(); ++p) {
-    for (std::size_t d = 0; d < 3; ++d) values[4 * p + d] = frame.velocities[3 * p + d] * volume[p];
-    values[4 * p + 3] = volume[p];
-  }
-  std::vector<double> deposited(4 * ncells);
-  engine.deposit(4, values, deposited);
-  std::vector<double> us(3 * ncells, 0.0);
-  for (std::size_t c = 0; c < ncells; ++c)
-    if (deposited[4 * c + 3] > 0)
-      for (std::size_t d = 0; d < 3; ++d) us[3 * c + d] = deposited[4 * c + d] / deposited[4 * c + 3];
-  return us;
-}
-
-/// The engine's per-particle weights of the last compute as CSV: particle (index in the
-/// frame), cell, fraction of the particle's volume in that cell.
-void write_weights_csv(const fs::path& file, const vfe::Engine& engine) {
-  const vfe::Engine::WeightsSize size = engine.weights_size();
-  std::vector<std::int64_t> offsets(static_cast<std::size_t>(size.particles + 1)), cells(static_cast<std::size_t>(size.entries));
-  std::vector<double> fractions(static_cast<std::size_t>(size.entries));
-  engine.weights(offsets, cells, fractions);
-  std::ostringstream o;
-  o << "particle,cell,fraction\n";
-  for (std::int64_t p = 0; p < size.particles; ++p)
-    for (std::int64_t k = offsets[static_cast<std::size_t>(p)]; k < offsets[static_cast<std::size_t>(p) + 1]; ++k)
-      o << p << ',' << cells[static_cast<std::size_t>(k)] << ',' << csv_number(fractions[static_cast<std::size_t>(k)])
-        << '\n';
-  std::ofstream out(file);
-  check_written(out, file);
-  out << o.str();
-  out.flush();
-  check_written(out, file);
-}
-
 }  // namespace
 
 std::shared_ptr<spdlog::logger> make_app_logger(bool quiet) {
@@ -124,11 +85,7 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
     log->info("particle options: {} (the config's options win)", frame.options);
   }
   const vfe::ParticleView particles = frame.view();
-  if (cfg.coupling && frame.n > 0 && frame.velocities.empty())
-    throw ConfigError(source + ": coupling: true needs the particles' velocities; " +
-                      (cfg.generate ? std::string("generated particles have none")
-                                    : "the dump " + frame.source_name + " has no vx vy vz columns") +
-                      "; dump them (or remove coupling)");
+  check_coupling_velocities(cfg, frame);
 
   std::error_code ec;
   fs::create_directories(out_dir, ec);
@@ -192,9 +149,9 @@ RunResult run_scene(const SceneConfig& cfg, const RunOptions& opt) {
       std::vector<double> us;
       if (cfg.coupling) {
         const fs::path weights_file = out_dir / (mesh.name + "_weights_" + label + ".csv");
-        write_weights_csv(weights_file, *engine);
+        write_weights_csv(weights_file, *engine, frame);
         log->info("  {}: wrote {}", label, weights_file.string());
-        if (keep_fields) us = particle_velocity_field(*engine, frame, ncells);
+        if (keep_fields) us = particle_velocity_field(*engine, frame);
       }
       if (keep_fields) fields.push_back({label, eps, field, opts, std::move(us)});
     };

@@ -1,7 +1,10 @@
 #include "run_plan.hpp"
 
+#include "text_format.hpp"
+
 #include <algorithm>
 #include <cstdio>
+#include <sstream>
 #include <string>
 #include <thread>
 
@@ -105,6 +108,41 @@ void log_mesh(spdlog::logger& log, const MeshSpec& mesh, const SceneMesh& built,
   else
     log.info("mesh '{}': {} x {} x {} cells of {} (chi = {:.2f})", mesh.name, built.grid.cells[0], built.grid.cells[1],
              built.grid.cells[2], g3(cell_size), chi);
+}
+
+std::vector<double> particle_velocity_field(const vfe::Engine& engine, const SceneParticles& particles) {
+  const std::size_t ncells = static_cast<std::size_t>(engine.cell_count());
+  const std::vector<double> volume = particles.volumes();
+  std::vector<double> values(4 * volume.size());
+  for (std::size_t p = 0; p < volume.size(); ++p) {
+    for (std::size_t d = 0; d < 3; ++d) values[4 * p + d] = particles.velocities[3 * p + d] * volume[p];
+    values[4 * p + 3] = volume[p];
+  }
+  std::vector<double> deposited(4 * ncells);
+  engine.deposit(4, values, deposited);
+  std::vector<double> us(3 * ncells, 0.0);
+  for (std::size_t c = 0; c < ncells; ++c)
+    if (deposited[4 * c + 3] > 0)
+      for (std::size_t d = 0; d < 3; ++d) us[3 * c + d] = deposited[4 * c + d] / deposited[4 * c + 3];
+  return us;
+}
+
+void write_weights_csv(const std::filesystem::path& file, const vfe::Engine& engine, const SceneParticles& particles) {
+  const vfe::Engine::WeightsSize size = engine.weights_size();
+  std::vector<std::int64_t> offsets(static_cast<std::size_t>(size.particles + 1)),
+      cells(static_cast<std::size_t>(size.entries));
+  std::vector<double> fractions(static_cast<std::size_t>(size.entries));
+  engine.weights(offsets, cells, fractions);
+  const bool ids = particles.ids.size() == static_cast<std::size_t>(size.particles) && size.particles > 0;
+  std::ostringstream o;
+  o << (ids ? "particle,id,cell,fraction\n" : "particle,cell,fraction\n");
+  for (std::size_t p = 0; p < static_cast<std::size_t>(size.particles); ++p)
+    for (std::int64_t k = offsets[p]; k < offsets[p + 1]; ++k) {
+      o << p << ',';
+      if (ids) o << particles.ids[p] << ',';
+      o << cells[static_cast<std::size_t>(k)] << ',' << csv_number(fractions[static_cast<std::size_t>(k)]) << '\n';
+    }
+  write_text_file(file, o.str());
 }
 
 std::vector<CellArray> field_arrays(const std::vector<MethodField>& fields) {

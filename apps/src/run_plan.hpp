@@ -6,6 +6,7 @@
 #include "foam_writer.hpp"
 #include "run.hpp"
 #include "scene_mesh.hpp"
+#include "scene_particles.hpp"
 #include "vtk_writer.hpp"
 
 #include <spdlog/logger.h>
@@ -56,6 +57,15 @@ struct MethodField {
   std::string options;
   std::vector<double> us;  ///< coupling: Us, 3 per cell (else empty)
 };
+
+/// Us per cell of the engine's last compute of particles (weights=1): the deposit of
+/// velocity x volume over the deposit of volume, (0, 0, 0) where no solid is; 3 per cell.
+std::vector<double> particle_velocity_field(const vfe::Engine& engine, const SceneParticles& particles);
+
+/// The engine's per-particle weights of its last compute of particles (weights=1) as CSV:
+/// particle (index in the frame), id (the dump's, when it has ids), cell, fraction of the
+/// particle's volume in that cell.
+void write_weights_csv(const std::filesystem::path& file, const vfe::Engine& engine, const SceneParticles& particles);
 
 /// The VTK cell arrays of the fields: voidfraction_<label>, solid_volume_<label>, Us_<label>.
 std::vector<CellArray> field_arrays(const std::vector<MethodField>& fields);

@@ -16,6 +16,8 @@
 
 #include <cstdio>
 #include <limits>
+#include <memory>
+#include <optional>
 #include <ostream>
 #include <sstream>
 
@@ -74,181 +76,309 @@ void print_series_table(std::ostream& out, const std::string& title, const std::
 
 }  // namespace
 
+namespace {
+
+/// One method on one mesh through the series: its own engine (so incremental=1 and its
+/// templates carry from frame to frame), its rows and its totals over the finished frames.
+struct MethodRun {
+  MethodSpec spec;
+  std::string options;
+  std::unique_ptr<vfe::Engine> engine;  ///< null when the mesh does not support the method
+  std::string skipped_why;
+  std::vector<FrameRow> rows;
+  std::vector<double> times;
+  FrameJump total;
+  std::vector<double> previous;  ///< eps of the last finished frame
+  bool overfull_warned = false;
+};
+
+/// One mesh: the reference's engine (the mesh's own) and one engine per method.
+struct MeshRun {
+  MeshSpec spec;
+  SceneMesh built;
+  double chi = 0;
+  bool foam_here = false;
+  std::vector<FoamPatch> patches;
+  bool have_ref = false;
+  std::vector<double> ref_previous;  ///< the reference's eps of the last finished frame
+  std::vector<MethodRun> methods;
+  std::vector<PvdEntry> pvd;
+};
+
+/// What one frame computed on one mesh, kept until the frame is done everywhere.
+struct MeshFrame {
+  std::vector<double> ref;  ///< the reference's eps (empty without a reference)
+  std::vector<MethodField> fields;
+  struct Method {
+    FrameRow row;
+    std::optional<FrameJump> jump;
+    std::vector<double> eps;
+  };
+  std::vector<std::optional<Method>> methods;  ///< per MethodRun; empty for a skipped one
+};
+
+}  // namespace
+
 RunResult run_series(const SceneConfig& cfg, const RunOptions& opt) {
   const auto log = opt.logger ? opt.logger : make_app_logger(true);
   const std::string source = cfg.source.string();
   const bool vtk = opt.vtk || cfg.vtk;
   const bool foam = opt.foam || cfg.foam;
+  const bool coupling = cfg.coupling;
   const fs::path out_dir = opt.output.value_or(cfg.output);
   const double dem_dt = cfg.series->dem_dt;
-  if (cfg.coupling)
-    throw ConfigError(source + ": coupling: true is not available for a series of frames yet; remove it, or run "
-                               "one frame (particles: {file: PATH, frame: N})");
 
   MethodPlan plan = plan_methods(cfg, opt);
-  auto t0 = Clock::now();
-  const std::vector<SceneParticles> frames = load_frame_series(cfg);
-  const SceneParticles& first = frames.front();
-  const auto nframes = frames.size();
-  log->info("{} frame(s), timesteps {} to {}, {} to {} particles, read in {:.0f} ms", nframes, first.timestep,
-            frames.back().timestep, first.n, frames.back().n, ms_since(t0));
-  if (!first.options.empty()) add_particle_options(plan, cfg, opt, first.options);
-  const double mean_d = first.mean_diameter();
-
+  // The output folder comes first: a live command may write beside it.
   std::error_code ec;
-  const fs::path folder = vtk ? out_dir / kFramesFolder : out_dir;
+  const fs::path folder = vtk || coupling ? out_dir / kFramesFolder : out_dir;
   fs::create_directories(folder, ec);
   if (ec || !fs::is_directory(folder))
     throw std::runtime_error(out_dir.string() + ": cannot create the output folder (" + ec.message() +
                              "); choose another with --output or 'output:'");
+
+  auto t0 = Clock::now();
+  const std::unique_ptr<FrameSource> frames = open_frame_source(cfg);
+  const std::int64_t known = frames->count();
+  if (known < 0) log->info("reading frames from {} as they come", frames->description());
+  SceneParticles frame;
+  if (!frames->next(frame)) throw std::runtime_error(source + ": the series has no frame");
+  if (known >= 0)
+    log->info("{}, read in {:.0f} ms; first: timestep {}, {} particles", frames->description(), ms_since(t0),
+              frame.timestep, frame.n);
+  if (!frame.options.empty()) add_particle_options(plan, cfg, opt, frame.options);
+  const double mean_d = frame.mean_diameter();
+  const std::array<double, 6> first_box = frame.box;
+
   auto frame_file = [&](const std::string& stem, std::int64_t timestep) {
     return fs::path(kFramesFolder) / (stem + "_" + std::to_string(timestep));
   };
-  if (vtk) {
-    std::vector<PvdEntry> entries;
-    for (const SceneParticles& f : frames) {
-      fs::path rel = frame_file("particles", f.timestep);
-      rel += ".vtp";
-      write_vtp(out_dir / rel, f.centres, f.radii, f.velocities, f.ids);
-      entries.push_back({frame_time(f.timestep, dem_dt), rel});
-    }
-    write_pvd(out_dir / "particles.pvd", entries);
-    log->info("wrote {} ({} .vtp files)", (out_dir / "particles.pvd").string(), entries.size());
-  }
-
-  RunResult result;
-  result.output = out_dir;
   auto unsupported = [](const vfe::Error& e) { return e.status() == VFE_ERROR_UNSUPPORTED; };
-  auto frame_where = [&](std::size_t k) {
-    return "timestep " + std::to_string(frames[k].timestep) + " (" + frames[k].source_name + ")";
+  auto frame_where = [&](const SceneParticles& f) {
+    return "timestep " + std::to_string(f.timestep) + " (" + f.source_name + ")";
   };
 
+  // Every mesh's engines, before the first frame is computed.
+  std::vector<MeshRun> meshes;
   for (const MeshSpec& mesh : scene_meshes(cfg, cfg.chi, mean_d)) {
-    SceneMesh built = build_scene_mesh(mesh, &first.box, source);
-    if (!built.note.empty()) log->info("mesh '{}': {}", mesh.name, built.note);
-    vfe::Engine& engine = *built.engine;
-    register_shapes(cfg, engine);
-    const std::size_t ncells = built.cell_volumes.size();
-    const double chi = mean_d > 0 ? built.cube_root_of_mean_volume() / mean_d : 0.0;
-    log_mesh(*log, mesh, built, chi);
-    const bool foam_here = foam && mesh.type == "polymesh";
-    if (foam && !foam_here)
+    MeshRun& mr = meshes.emplace_back();
+    mr.spec = mesh;
+    mr.built = build_scene_mesh(mesh, &first_box, source);
+    if (!mr.built.note.empty()) log->info("mesh '{}': {}", mesh.name, mr.built.note);
+    register_shapes(cfg, *mr.built.engine);
+    mr.chi = mean_d > 0 ? mr.built.cube_root_of_mean_volume() / mean_d : 0.0;
+    log_mesh(*log, mesh, mr.built, mr.chi);
+    mr.foam_here = foam && mesh.type == "polymesh";
+    if (foam && !mr.foam_here)
       log->warn("mesh '{}' is not an OpenFOAM case: OpenFOAM field files are written for polymesh meshes only",
                 mesh.name);
-    const bool keep_fields = vtk || foam_here;
-    std::vector<std::vector<MethodField>> fields(nframes);  // per frame, kept for the writers
-    std::vector<double> solid(ncells), eps(ncells);
-
-    // The reference's void fraction of every frame, for the jumps.
-    std::vector<std::vector<double>> ref(nframes);
-    bool have_ref = false;
+    if (mr.foam_here) mr.patches = read_constraint_patches(find_polymesh_folder(mesh.path));
     try {
-      engine.configure(plan.options_for(plan.reference));
-      for (std::size_t k = 0; k < nframes; ++k) {
-        with_mesh_context(mesh, "reference '" + plan.reference.label + "', " + frame_where(k),
-                          [&] { engine.compute(frames[k].view(), solid); });
-        ref[k].resize(ncells);
-        engine.void_fraction(ref[k]);
-        if (keep_fields && !plan.reference_listed)
-          fields[k].push_back({plan.reference.label, ref[k], solid, plan.options_for(plan.reference), {}});
-      }
-      have_ref = true;
+      mr.built.engine->configure(plan.options_for(plan.reference));
+      mr.have_ref = true;
     } catch (const vfe::Error& e) {
       if (!unsupported(e)) throw;
       log->warn("mesh '{}': reference '{}' is not supported here ({}); jumps against it are not computed", mesh.name,
                 plan.reference.label, e.what());
     }
-
-    std::vector<SeriesRow> mesh_rows;
     for (const MethodSpec& m : plan.methods) {
-      const std::string opts = plan.options_for(m);
-      SeriesRow summary{mesh.name, m.label, m.method, chi, static_cast<std::int64_t>(nframes), 0, kNaN, kNaN, kNaN,
-                        false, ""};
+      MethodRun& run = mr.methods.emplace_back();
+      run.spec = m;
+      run.options = plan.options_for(m);
+      std::unique_ptr<vfe::Engine> engine = another_engine(mesh, mr.built);
+      register_shapes(cfg, *engine);
       try {
-        engine.configure(opts);
+        engine->configure(run.options);
+        run.engine = std::move(engine);
       } catch (const vfe::Error& e) {
-        if (!unsupported(e)) throw vfe::Error(e.status(), "mesh '" + mesh.name + "', method '" + m.label + "': " + e.what());
+        if (!unsupported(e))
+          throw vfe::Error(e.status(), "mesh '" + mesh.name + "', method '" + m.label + "': " + e.what());
         log->warn("mesh '{}': method '{}' skipped: {}", mesh.name, m.label, e.what());
-        summary.skipped = true;
-        summary.note = e.what();
-        mesh_rows.push_back(std::move(summary));
-        continue;
+        run.skipped_why = e.what();
       }
-      FrameJump total;
-      std::vector<double> times, previous;
-      bool overfull_warned = false;
-      for (std::size_t k = 0; k < nframes; ++k) {
-        const SceneParticles& f = frames[k];
-        t0 = Clock::now();
-        with_mesh_context(mesh, "method '" + m.label + "', " + frame_where(k), [&] { engine.compute(f.view(), solid); });
-        const double ms = ms_since(t0);
-        engine.void_fraction(eps);
-        times.push_back(ms);
-        FrameRow row{mesh.name, m.label, m.method, chi, static_cast<std::int64_t>(k), f.timestep,
-                     frame_time(f.timestep, dem_dt), ms, kNaN, kNaN, kNaN, 0};
-        if (k > 0 && have_ref) {
-          const FrameJump j = frame_jump(previous, eps, ref[k - 1], ref[k]);
-          row.max_excess = j.max_excess;
-          row.mean_excess = j.mean_excess();
-          row.max_exact_jump = j.max_reference_jump;
-          row.changed_cells = j.changed_cells;
-          total.add(j);
+    }
+  }
+
+  RunResult result;
+  result.output = out_dir;
+  std::vector<PvdEntry> particle_pvd;
+  std::int64_t done = 0;               // frames finished on every mesh
+  std::int64_t first_timestep = frame.timestep, last_timestep = frame.timestep;
+
+  // After a compute with coupling: the frame's weights as CSV and its Us field.
+  auto coupling_outputs = [&](const MeshRun& mr, const std::string& label, const vfe::Engine& engine,
+                              const SceneParticles& f, bool keep) {
+    std::vector<double> us;
+    if (!coupling) return us;
+    fs::path rel = frame_file(mr.spec.name + "_weights_" + label, f.timestep);
+    rel += ".csv";
+    write_weights_csv(out_dir / rel, engine, f);
+    if (keep) us = particle_velocity_field(engine, f);
+    return us;
+  };
+
+  // Computes one frame on every mesh and method, then writes its files and keeps its rows.
+  auto compute_frame = [&](const SceneParticles& f) {
+    const double time = frame_time(f.timestep, dem_dt);
+    const auto frame_start = Clock::now();
+    std::vector<MeshFrame> computed(meshes.size());
+    for (std::size_t mi = 0; mi < meshes.size(); ++mi) {
+      MeshRun& mr = meshes[mi];
+      MeshFrame& out = computed[mi];
+      const std::size_t ncells = mr.built.cell_volumes.size();
+      const bool keep_fields = vtk || mr.foam_here;
+      std::vector<double> solid(ncells);
+      if (mr.have_ref) {
+        vfe::Engine& engine = *mr.built.engine;
+        try {
+          with_mesh_context(mr.spec, "reference '" + plan.reference.label + "', " + frame_where(f),
+                            [&] { engine.compute(f.view(), solid); });
+          out.ref.resize(ncells);
+          engine.void_fraction(out.ref);
+          if (!plan.reference_listed) {
+            std::vector<double> us = coupling_outputs(mr, plan.reference.label, engine, f, keep_fields);
+            if (keep_fields)
+              out.fields.push_back({plan.reference.label, out.ref, solid, plan.options_for(plan.reference), std::move(us)});
+          }
+        } catch (const vfe::Error& e) {
+          if (!unsupported(e)) throw;
+          log->warn("mesh '{}': reference '{}' is not supported here ({}); jumps against it are not computed",
+                    mr.spec.name, plan.reference.label, e.what());
+          mr.have_ref = false;
+          out.ref.clear();
         }
-        log->info("  {} frame {}/{} (timestep {}, t = {:g}): {:.3f} ms, max excess jump {:.4f}", m.label, k + 1,
-                  nframes, f.timestep, row.time, ms, row.max_excess);
-        if (!overfull_warned) {
+      }
+      for (MethodRun& run : mr.methods) {
+        std::optional<MeshFrame::Method>& slot = out.methods.emplace_back();
+        if (!run.engine) continue;
+        vfe::Engine& engine = *run.engine;
+        MeshFrame::Method m;
+        const auto t = Clock::now();
+        with_mesh_context(mr.spec, "method '" + run.spec.label + "', " + frame_where(f),
+                          [&] { engine.compute(f.view(), solid); });
+        const double ms = ms_since(t);
+        m.eps.resize(ncells);
+        engine.void_fraction(m.eps);
+        m.row = FrameRow{mr.spec.name, run.spec.label, run.spec.method, mr.chi, done, f.timestep, time, ms,
+                         kNaN, kNaN, kNaN, 0};
+        if (done > 0 && !out.ref.empty() && !mr.ref_previous.empty()) {
+          const FrameJump j = frame_jump(run.previous, m.eps, mr.ref_previous, out.ref);
+          m.row.max_excess = j.max_excess;
+          m.row.mean_excess = j.mean_excess();
+          m.row.max_exact_jump = j.max_reference_jump;
+          m.row.changed_cells = j.changed_cells;
+          m.jump = j;
+        }
+        log->debug("  mesh '{}', {}: {:.3f} ms, max excess jump {:.4f}", mr.spec.name, run.spec.label, ms,
+                   m.row.max_excess);
+        if (!run.overfull_warned) {
           const OverfullFacts overfull = overfull_facts(engine);
-          overfull_warned = overfull.cells > 0;
-          warn_overfull(*log, mesh.name, m.label, overfull, f.total_volume());
-          if (overfull_warned) log->info("  {}: first at timestep {} (later frames are not reported)", m.label, f.timestep);
+          run.overfull_warned = overfull.cells > 0;
+          warn_overfull(*log, mr.spec.name, run.spec.label, overfull, f.total_volume());
+          if (run.overfull_warned)
+            log->info("  {}: first at timestep {} (later frames are not reported)", run.spec.label, f.timestep);
         }
-        if (keep_fields) fields[k].push_back({m.label, eps, solid, opts, {}});
-        previous = eps;
-        result.frames.push_back(std::move(row));
+        std::vector<double> us = coupling_outputs(mr, run.spec.label, engine, f, keep_fields);
+        if (keep_fields) out.fields.push_back({run.spec.label, m.eps, solid, run.options, std::move(us)});
+        slot = std::move(m);
       }
-      summary.ms_median = median(times);
-      if (have_ref && nframes > 1) {
-        summary.max_excess = total.max_excess;
-        summary.mean_excess = total.mean_excess();
-        summary.max_exact_jump = total.max_reference_jump;
-      }
-      mesh_rows.push_back(std::move(summary));
     }
 
+    // The frame is computed everywhere: its files, then its rows.
     if (vtk) {
-      std::vector<PvdEntry> entries;
-      for (std::size_t k = 0; k < nframes; ++k) {
+      fs::path rel = frame_file("particles", f.timestep);
+      rel += ".vtp";
+      write_vtp(out_dir / rel, f.centres, f.radii, f.velocities, f.ids);
+      particle_pvd.push_back({time, rel});
+      write_pvd(out_dir / "particles.pvd", particle_pvd);
+    }
+    for (std::size_t mi = 0; mi < meshes.size(); ++mi) {
+      MeshRun& mr = meshes[mi];
+      MeshFrame& out = computed[mi];
+      if (vtk) {
         const fs::path written =
-            write_mesh_vtk(out_dir / frame_file(mesh.name, frames[k].timestep), built, field_arrays(fields[k]));
-        entries.push_back({frame_time(frames[k].timestep, dem_dt), fs::path(kFramesFolder) / written.filename()});
+            write_mesh_vtk(out_dir / frame_file(mr.spec.name, f.timestep), mr.built, field_arrays(out.fields));
+        mr.pvd.push_back({time, fs::path(kFramesFolder) / written.filename()});
+        write_pvd(out_dir / (mr.spec.name + ".pvd"), mr.pvd);
       }
-      write_pvd(out_dir / (mesh.name + ".pvd"), entries);
-      log->info("wrote {} ({} frames)", (out_dir / (mesh.name + ".pvd")).string(), nframes);
-    }
-    if (foam_here) {
-      const std::vector<FoamPatch> patches = read_constraint_patches(find_polymesh_folder(mesh.path));
-      for (std::size_t k = 0; k < nframes; ++k) {
-        if (fields[k].empty()) continue;
+      if (mr.foam_here && !out.fields.empty()) {
         // 12 digits: 18000 * 1e-5 is the folder 0.18, not 0.18000000000000002.
-        const std::string time_name = printf_number("%.12g", frame_time(frames[k].timestep, dem_dt));
-        write_foam_time(out_dir / mesh.name / time_name, time_name, fields[k], plan, patches, *log);
+        const std::string time_name = printf_number("%.12g", time);
+        write_foam_time(out_dir / mr.spec.name / time_name, time_name, out.fields, plan, mr.patches, *log);
       }
+      for (std::size_t k = 0; k < mr.methods.size(); ++k) {
+        if (!out.methods[k]) continue;
+        MethodRun& run = mr.methods[k];
+        MeshFrame::Method& m = *out.methods[k];
+        run.times.push_back(m.row.ms);
+        if (m.jump) run.total.add(*m.jump);
+        run.rows.push_back(m.row);
+        run.previous = std::move(m.eps);
+      }
+      mr.ref_previous = std::move(out.ref);
     }
+    last_timestep = f.timestep;
+    ++done;
+    log->info("frame {}{} (timestep {}, t = {:g}): computed in {:.1f} ms", done,
+              known >= 0 ? "/" + std::to_string(known) : std::string(), f.timestep, time, ms_since(frame_start));
+  };
 
-    if (opt.table) {
-      char title[512];
-      std::snprintf(title, sizeof title, "\n%s / mesh %s: %zu cells (chi = %.2f), %zu frames (timesteps %lld to %lld), "
-                                         "reference %s",
-                    cfg.name.c_str(), mesh.name.c_str(), ncells, chi, nframes,
-                    static_cast<long long>(first.timestep), static_cast<long long>(frames.back().timestep),
-                    plan.reference_title().c_str());
-      print_series_table(*opt.table, title, mesh_rows);
+  // The reports of the finished frames (after each frame, and when the series stops early).
+  auto write_reports = [&](bool tables) {
+    result.frames.clear();
+    result.series.clear();
+    for (const MeshRun& mr : meshes) {
+      std::vector<SeriesRow> mesh_rows;
+      for (const MethodRun& run : mr.methods) {
+        SeriesRow summary{mr.spec.name, run.spec.label, run.spec.method, mr.chi, done, 0, kNaN, kNaN, kNaN,
+                          !run.engine, run.skipped_why};
+        if (run.engine) {
+          result.frames.insert(result.frames.end(), run.rows.begin(), run.rows.end());
+          summary.ms_median = run.times.empty() ? kNaN : median(run.times);
+          if (run.total.max_excess > -std::numeric_limits<double>::infinity()) {  // a pair of frames was compared
+            summary.max_excess = run.total.max_excess;
+            summary.mean_excess = run.total.mean_excess();
+            summary.max_exact_jump = run.total.max_reference_jump;
+          }
+        }
+        mesh_rows.push_back(std::move(summary));
+      }
+      if (tables && opt.table) {
+        char title[512];
+        std::snprintf(title, sizeof title,
+                      "\n%s / mesh %s: %zu cells (chi = %.2f), %lld frames (timesteps %lld to %lld), reference %s",
+                      cfg.name.c_str(), mr.spec.name.c_str(), mr.built.cell_volumes.size(), mr.chi,
+                      static_cast<long long>(done), static_cast<long long>(first_timestep),
+                      static_cast<long long>(last_timestep), plan.reference_title().c_str());
+        print_series_table(*opt.table, title, mesh_rows);
+      }
+      result.series.insert(result.series.end(), mesh_rows.begin(), mesh_rows.end());
     }
-    result.series.insert(result.series.end(), mesh_rows.begin(), mesh_rows.end());
-    // Reports so far, so a long run leaves results even if a later mesh fails.
     write_frames_csv(out_dir / "frames.csv", result.frames);
     write_jumps_csv(out_dir / "frame_jumps.csv", result.series);
+  };
+
+  try {
+    do {
+      compute_frame(frame);
+      write_reports(false);
+    } while (frames->next(frame));
+  } catch (const std::exception& e) {
+    // What the finished frames computed stays: their files are written, and the reports.
+    if (done > 0) {
+      try {
+        write_reports(true);
+        log->error("the series stopped after {} frame(s) (timesteps {} to {}); their results are in {}", done,
+                   first_timestep, last_timestep, out_dir.string());
+      } catch (const std::exception& w) {
+        log->error("could not write the reports of the finished frames: {}", w.what());
+      }
+    }
+    throw;
   }
+  write_reports(true);
+  if (vtk) log->info("wrote {} .pvd collections of {} frames in {}", meshes.size() + 1, done, out_dir.string());
+  if (coupling) log->info("wrote the weights of every frame in {}", (out_dir / kFramesFolder).string());
   log->info("wrote {} and {}", (out_dir / "frames.csv").string(), (out_dir / "frame_jumps.csv").string());
   return result;
 }

@@ -17,22 +17,41 @@ double SceneMesh::mean_cube_root_volume() const {
   return sum / static_cast<double>(std::max<std::size_t>(cell_volumes.size(), 1));
 }
 
+namespace {
+
+/// The engine of a mesh; grid is the resolved grid of a Cartesian mesh.
+std::unique_ptr<vfe::Engine> mesh_engine(const MeshSpec& mesh, const vfe::CartesianGridSpec& grid) {
+  std::unique_ptr<vfe::Engine> e;
+  with_mesh_context(mesh, "", [&] {
+    if (mesh.type == "polymesh")
+      e = std::make_unique<vfe::Engine>(vfe::PolyMeshSpec{mesh.path.string()});
+    else if (mesh.type == "rectilinear")
+      e = std::make_unique<vfe::Engine>(vfe::RectilinearGridSpec{mesh.nodes});
+    else
+      e = std::make_unique<vfe::Engine>(grid);
+  });
+  return e;
+}
+
+}  // namespace
+
 SceneMesh build_scene_mesh(const MeshSpec& mesh, const std::array<double, 6>* particles_box,
                            const std::string& source) {
   SceneMesh m;
-  if (mesh.type == "polymesh") {
-    with_mesh_context(mesh, "", [&] { m.engine = std::make_unique<vfe::Engine>(vfe::PolyMeshSpec{mesh.path.string()}); });
-  } else if (mesh.type == "rectilinear") {
-    with_mesh_context(mesh, "", [&] { m.engine = std::make_unique<vfe::Engine>(vfe::RectilinearGridSpec{mesh.nodes}); });
+  if (mesh.type == "rectilinear") {
     for (int d = 0; d < 3; ++d) m.cells_per_axis[d] = static_cast<std::int64_t>(mesh.nodes[d].size()) - 1;
-  } else {
+  } else if (mesh.type != "polymesh") {
     m.grid = resolve_grid(mesh, particles_box, source, &m.note);
-    with_mesh_context(mesh, "", [&] { m.engine = std::make_unique<vfe::Engine>(m.grid); });
     m.cells_per_axis = m.grid.cells;
   }
+  m.engine = mesh_engine(mesh, m.grid);
   m.cell_volumes.resize(static_cast<std::size_t>(m.engine->cell_count()));
   m.engine->cell_volumes(m.cell_volumes);
   return m;
+}
+
+std::unique_ptr<vfe::Engine> another_engine(const MeshSpec& mesh, const SceneMesh& built) {
+  return mesh_engine(mesh, built.grid);
 }
 
 std::vector<MeshSpec> scene_meshes(const SceneConfig& cfg, const std::vector<double>& chis, double mean_diameter) {

@@ -47,6 +47,11 @@ void with_mesh_context(const MeshSpec& mesh, const std::string& what, F&& f) {
 SceneMesh build_scene_mesh(const MeshSpec& mesh, const std::array<double, 6>* particles_box,
                            const std::string& source);
 
+/// Another engine on the mesh of built (a series keeps one engine per method, so that each
+/// method's incremental state and templates carry from frame to frame); a polyMesh is read
+/// again. Engine errors are rethrown naming the mesh.
+std::unique_ptr<vfe::Engine> another_engine(const MeshSpec& mesh, const SceneMesh& built);
+
 /// The listed meshes of a scene followed by one Cartesian grid per chi value (cells of chi
 /// x mean_diameter). Throws ConfigError when chi values are given without particles.
 std::vector<MeshSpec> scene_meshes(const SceneConfig& cfg, const std::vector<double>& chis, double mean_diameter);

@@ -91,6 +91,15 @@ std::vector<double> config_shape_volumes(const SceneConfig& c) {
   return volumes;
 }
 
+void check_coupling_velocities(const SceneConfig& c, const SceneParticles& p) {
+  if (!c.coupling || p.n == 0 || !p.velocities.empty()) return;
+  throw ConfigError(c.source.string() + ": coupling: true needs the particles' velocities; " +
+                    (c.generate ? std::string("generated particles have none")
+                                : "the dump " + p.source_name + " has no vx vy vz columns" +
+                                      (c.series ? " (timestep " + std::to_string(p.timestep) + ")" : std::string())) +
+                    "; dump them (LIGGGHTS: dump ... id type x y z radius vx vy vz), or remove coupling");
+}
+
 SceneParticles load_particles(const SceneConfig& c) {
   const std::string source = c.source.string();
   if (c.series)

@@ -55,6 +55,10 @@ SceneParticles load_particles(const SceneConfig& config);
 SceneParticles particles_from_dump(const SceneConfig& config, DumpFrame&& frame, const std::filesystem::path& file,
                                    std::vector<double> shape_volumes);
 
+/// With coupling: true the particles must carry velocities (the dump's vx vy vz, for Us):
+/// throws ConfigError naming the config, the frame's dump (and timestep) and the fix.
+void check_coupling_velocities(const SceneConfig& config, const SceneParticles& particles);
+
 /// The scale-1 volume of each of the config's shapes (registered on a probe engine).
 std::vector<double> config_shape_volumes(const SceneConfig& config);
 

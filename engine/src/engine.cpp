@@ -6,6 +6,7 @@
 
 #include "accumulator.hpp"
 #include "engine_mesh.hpp"
+#include "methods/hybrid.hpp"
 #include "methods/lattice.hpp"
 #include "methods/registry.hpp"
 #include "methods/shape_exact.hpp"
@@ -240,7 +241,7 @@ struct Engine::Impl {
       if (opts.method == Method::exact)
         if (const std::string why = detail::exact_shape_refusal(sh.shape, id); !why.empty())
           throw Error(VFE_ERROR_UNSUPPORTED, why);
-      if (opts.method != Method::pmm) continue;
+      if (opts.method != Method::pmm && opts.method != Method::automatic) continue;  // auto: shapes take pmm
       if (opts.particle_grid > 0) {
         sh.variants = &shape_template(id, opts.particle_grid, sh.variants_needed);
         continue;
@@ -469,8 +470,10 @@ struct Engine::Impl {
   /// particle's fast path or octant count (methods/driver.hpp, pmm_sphere_quick) adds
   /// straight into the thread's field; a particle that takes neither goes through the
   /// driver. The same cells as the general loop, with less per particle around them.
+  /// method=auto takes the same pass with its own quick case (methods/hybrid.hpp).
   bool fuses_pmm(const ParticleArrays& pa, const detail::AccumulationPlan& pl) const {
-    return opts.method == Method::pmm && mesh.kind() == MeshKind::cartesian && !pa.shape_ids && !mesh.periodic() &&
+    return (opts.method == Method::pmm || opts.method == Method::automatic) && mesh.kind() == MeshKind::cartesian &&
+           !pa.shape_ids && !mesh.periodic() &&
            opts.orientation != Orientation::given && opts.fast_path && pl.strategy == Accumulation::privatised &&
            !pl.uses_blocks() && !pl.touched_only;
   }
@@ -483,14 +486,19 @@ struct Engine::Impl {
           Scratch& s = scratch.local();
           double* const field = thread_field();
           auto add = [field](std::int64_t cell, double v) { field[cell] += v; };
+          const bool hybrid = opts.method == Method::automatic;
           for (std::int64_t p = r.begin(); p < r.end(); ++p) {
             __builtin_prefetch(pa.centres + (p + 16) * pa.centres_stride);
             __builtin_prefetch(pa.radii + (p + 16) * pa.radii_stride);
             const double radius = pa.radius(p);
             detail::Particle part{p, pa.centre(p), radius, sphere_volume(radius), nullptr, pa.rotation_key(p)};
-            if (detail::pmm_sphere_quick(ctx, s, part, add)) continue;
+            if (hybrid ? detail::auto_sphere_quick(ctx, s, part, add) : detail::pmm_sphere_quick(ctx, s, part, add))
+              continue;
             s.deposits.clear();
-            detail::pmm_particle(ctx, s, particle(pa, p));
+            if (hybrid)
+              detail::auto_particle(ctx, s, particle(pa, p));
+            else
+              detail::pmm_particle(ctx, s, particle(pa, p));
             for (const Deposit& d : s.deposits) add(d.cell, d.volume);
           }
         });
@@ -549,7 +557,7 @@ struct Engine::Impl {
           std::max({deterministic_volume_bound, v.shape_volume_max, v.d_max > 0 ? sphere_volume(v.d_max / 2) : 0.0}));
     const detail::TemplateBank bank =
         templates.prepare(opts, v.d_min, v.d_max, mesh.smallest_cell_volume(), mesh.largest_cell_volume());
-    if (opts.method == Method::pmm && !bank.fixed && !bank.templates.empty())
+    if ((opts.method == Method::pmm || opts.method == Method::automatic) && !bank.fixed && !bank.templates.empty())
       log->info("particle_grid=auto: {} to {} sub-elements per particle", bank.templates.front()->size(),
                 bank.templates.back()->size());
     prepare_shapes(pa);
@@ -830,6 +838,7 @@ struct Engine::Impl {
   Report gather_report(const ParticleArrays& pa, double particle_volume_sum) {
     Report rep{};
     lattice_particles = 0;
+    auto_paths[0] = auto_paths[1] = auto_paths[2] = 0;
     rep.particles = pa.n;
     rep.particle_volume = particle_volume_sum;
     rep.particle_grid_min = std::numeric_limits<std::int64_t>::max();
@@ -839,6 +848,9 @@ struct Engine::Impl {
       rep.sub_elements += s.sub_elements;
       rep.outside_particles += s.outside_particles;
       lattice_particles += s.lattice_particles;
+      auto_paths[0] += s.auto_fast;
+      auto_paths[1] += s.auto_pmm;
+      auto_paths[2] += s.auto_exact;
       rep.particle_grid_min = std::min(rep.particle_grid_min, s.grid_min);
       rep.particle_grid_max = std::max(rep.particle_grid_max, s.grid_max);
       first_error = std::min(first_error, s.first_error);
@@ -875,6 +887,8 @@ struct Engine::Impl {
   bool fused_pass = false;
   /// Particles of the last compute that the box lattice's grid path took.
   std::int64_t lattice_particles = 0;
+  /// method=auto: particles of the last compute on the fast path, pmm and exact.
+  std::int64_t auto_paths[3] = {0, 0, 0};
   void count_overfull() {
     overfull_cells = 0;
     overfull_volume = 0;
@@ -1139,6 +1153,9 @@ double Engine::last_report_value(std::string_view key) const {
       {"fused_pass", impl_->fused_pass ? 1.0 : 0.0},
       {"lattice_cells", impl_->mesh.lattice() ? double(impl_->mesh.cell_count()) : 0.0},
       {"lattice_particles", double(impl_->have_field ? impl_->lattice_particles : 0)},
+      {"auto_fast", double(impl_->have_field ? impl_->auto_paths[0] : 0)},
+      {"auto_pmm", double(impl_->have_field ? impl_->auto_paths[1] : 0)},
+      {"auto_exact", double(impl_->have_field ? impl_->auto_paths[2] : 0)},
   };
   std::string known = "the vfe_report fields";
   for (const auto& [name, value] : facts) {
@@ -1163,6 +1180,14 @@ double Engine::shape_volume(std::int32_t id) const {
   if (id < 0 || id >= static_cast<std::int32_t>(impl_->shapes.size()))
     throw Error(VFE_ERROR_INVALID_ARGUMENT, "shape id " + std::to_string(id) + " is not registered");
   return impl_->shapes[id].shape.volume();
+}
+
+double Engine::shape_reach(std::int32_t id) const {
+  shape_volume(id);  // checks the id
+  const kernels::Shape& shape = impl_->shapes[id].shape;
+  if (shape.kind() == kernels::Shape::Kind::sphere) return 1.0;
+  const Eigen::AlignedBox3d& b = shape.bounds();
+  return b.min().cwiseAbs().cwiseMax(b.max().cwiseAbs()).norm();
 }
 
 std::int64_t Engine::particle_grid_for(double diameter, double cell_size) const {

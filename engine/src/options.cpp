@@ -92,7 +92,8 @@ constexpr std::pair<const char*, Method> kMethods[] = {
     {"direct", Method::direct},           {"pmm", Method::pmm},
     {"exact", Method::exact},             {"divided", Method::divided},
     {"gaussian", Method::gaussian},       {"porous_cube", Method::porous_cube},
-    {"big_particle", Method::big_particle}, {"trilinear", Method::trilinear}};
+    {"big_particle", Method::big_particle}, {"trilinear", Method::trilinear},
+    {"auto", Method::automatic}};
 constexpr std::pair<const char*, TemplateFamily> kTemplates[] = {
     {"spherical", TemplateFamily::spherical}, {"fibonacci", TemplateFamily::fibonacci},
     {"voxel", TemplateFamily::voxel}};

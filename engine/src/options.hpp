@@ -10,7 +10,8 @@
 
 namespace vfe {
 
-enum class Method { direct, pmm, exact, divided, gaussian, porous_cube, big_particle, trilinear };
+/// automatic: method=auto, per sphere the cheapest of the fast path, pmm and exact (methods/hybrid.hpp).
+enum class Method { direct, pmm, exact, divided, gaussian, porous_cube, big_particle, trilinear, automatic };
 enum class TemplateFamily { spherical, fibonacci, voxel };
 enum class Orientation { random, given, none };
 enum class Outside { nearest, centre, drop, error };

@@ -53,7 +53,7 @@ const kernels::ParticleTemplate& TemplateCache::get(const Options& opts, std::in
 TemplateBank TemplateCache::prepare(const Options& opts, double d_min, double d_max, double v_min, double v_max) {
   bank_.clear();
   TemplateBank bank;
-  if (opts.method != Method::pmm) return bank;
+  if (opts.method != Method::pmm && opts.method != Method::automatic) return bank;
   if (opts.particle_grid > 0) {
     bank_.push_back(&get(opts, opts.particle_grid));
     bank.fixed = true;

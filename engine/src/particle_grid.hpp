@@ -65,7 +65,7 @@ class TemplateCache {
   const kernels::ParticleTemplate& get(const Options& opts, std::int64_t n);
 
   /// Prepares the bank for spheres of diameters [d_min, d_max] in cells of volumes
-  /// [v_min, v_max] (nothing unless method=pmm). Returns the bank; valid until the next call.
+  /// [v_min, v_max] (nothing unless method=pmm or auto). Returns the bank; valid until the next call.
   TemplateBank prepare(const Options& opts, double d_min, double d_max, double v_min, double v_max);
 
  private:

@@ -9,6 +9,10 @@
 // and the change of eps since the previous coupling step; writes the same rows as CSV.
 // --check also computes every step afresh (incremental=0) on a second engine and fails
 // when the two fields differ or the deposited volume differs from the particles' volume.
+// --dump FILE writes each coupling step's particles as a LAMMPS text dump frame (id type
+// x y z radius vx vy vz); --dump - writes them to standard output, one flushed frame per
+// coupling step (the table then goes to standard error), so that `vfe run` can take the
+// running DEM as its particle source: particles: {command: "vfe_liggghts ... --dump -"}.
 #include <mpi.h>
 #include <liggghts/library.h>
 #include <vfe/vfe.h>
@@ -64,6 +68,8 @@ struct LiveAtoms {
   const double* x = nullptr;       // x[0] of LIGGGHTS's double** x: 3 per atom, contiguous
   const double* radius = nullptr;
   const int* tag = nullptr;        // LIGGGHTS's ids are int; vfe's are int64
+  const double* v = nullptr;       // v[0]: 3 per atom (only for --dump)
+  const int* type = nullptr;       // (only for --dump)
 };
 
 LiveAtoms live_atoms(void* lmp) {
@@ -76,7 +82,28 @@ LiveAtoms live_atoms(void* lmp) {
   a.tag = static_cast<const int*>(lammps_extract_atom(lmp, const_cast<char*>("id")));
   if (!a.x || !a.radius || !a.tag)
     throw std::runtime_error("LIGGGHTS gave no x, radius or id arrays: the input needs atom_style granular");
+  auto** v = static_cast<double**>(lammps_extract_atom(lmp, const_cast<char*>("v")));
+  a.v = v ? v[0] : nullptr;
+  a.type = static_cast<const int*>(lammps_extract_atom(lmp, const_cast<char*>("type")));
   return a;
+}
+
+/// One LAMMPS text dump frame of the atoms, every value to 17 digits (lossless), flushed so
+/// a reader at the other end of a pipe gets it whole at once.
+void write_dump_frame(std::FILE* out, long long step, const double lo[3], const double hi[3], const LiveAtoms& a) {
+  if (!a.v || !a.type) throw std::runtime_error("LIGGGHTS gave no v or type arrays: the input needs atom_style granular");
+  std::fprintf(out, "ITEM: TIMESTEP\n%lld\nITEM: NUMBER OF ATOMS\n%d\nITEM: BOX BOUNDS\n", step, a.n);
+  for (int d = 0; d < 3; ++d) std::fprintf(out, "%.17g %.17g\n", lo[d], hi[d]);
+  std::fputs("ITEM: ATOMS id type x y z radius vx vy vz\n", out);
+  for (int i = 0; i < a.n; ++i) {
+    const double* x = a.x + 3 * i;
+    const double* v = a.v + 3 * i;
+    std::fprintf(out, "%d %d %.17g %.17g %.17g %.17g %.17g %.17g %.17g\n", a.tag[i], a.type[i], x[0], x[1], x[2],
+                 a.radius[i], v[0], v[1], v[2]);
+  }
+  if (std::fflush(out) != 0 || std::ferror(out))
+    throw std::runtime_error("cannot write the dump frame of step " + std::to_string(step) +
+                             " (the reader of --dump stopped?)");
 }
 
 struct Change {
@@ -96,7 +123,7 @@ Change field_change(const std::vector<double>& now, const std::vector<double>& b
 
 int run(int argc, char** argv) {
   CLI::App app{"LIGGGHTS in-process with vfe's void fraction every N DEM steps"};
-  std::string input, csv = "vfe_liggghts.csv", options = "method=pmm", screen = "liggghts.screen";
+  std::string input, csv = "vfe_liggghts.csv", options = "method=pmm", screen = "liggghts.screen", dump;
   long every = 500;
   int couplings = 10;
   double cell = 0.002;
@@ -112,6 +139,9 @@ int run(int argc, char** argv) {
   app.add_option("--csv", csv, "series output");
   app.add_option("--screen", screen, "file for LIGGGHTS's screen output (its log goes next to it)");
   app.add_flag("--check", verify, "also compute afresh each step and fail on any difference");
+  app.add_option("--dump", dump,
+                 "write each coupling step's particles as a LAMMPS text dump frame to this file, or with '-' to "
+                 "standard output (the table goes to standard error)");
   CLI11_PARSE(app, argc, argv);
 
   const std::string log = screen + ".log";
@@ -137,9 +167,17 @@ int run(int argc, char** argv) {
 
   std::ofstream out(csv);
   if (!out) throw std::runtime_error(csv + ": cannot write the series");
+  // The dump frames; on standard output they take its place, and the table moves to stderr.
+  std::FILE* table = dump == "-" ? stderr : stdout;
+  std::unique_ptr<std::FILE, decltype(&std::fclose)> dump_file(nullptr, &std::fclose);
+  if (!dump.empty() && dump != "-") {
+    dump_file.reset(std::fopen(dump.c_str(), "w"));
+    if (!dump_file) throw std::runtime_error(dump + ": cannot write the dump frames");
+  }
+  std::FILE* dump_out = dump == "-" ? stdout : dump_file.get();
   out << "step,dem_time,particles,moved,vfe_ms,max_abs_deps,mean_abs_deps,mean_eps,particle_volume,"
          "deposited_volume\n";
-  std::printf("%8s %10s %9s %7s %9s %12s %12s %9s\n", "step", "DEM t [s]", "particles", "moved", "vfe [ms]",
+  std::fprintf(table, "%8s %10s %9s %7s %9s %12s %12s %9s\n", "step", "DEM t [s]", "particles", "moved", "vfe [ms]",
               "max|deps|", "mean|deps|", "mean eps");
 
   int failures = 0;
@@ -169,11 +207,12 @@ int run(int argc, char** argv) {
     mean_eps /= static_cast<double>(n_cells);
     const Change c = field_change(eps, eps_before);
     eps_before = eps;
-    std::printf("%8lld %10.4f %9d %7.0f %9.3f %12.3e %12.3e %9.5f\n", static_cast<long long>(step),
+    std::fprintf(table, "%8lld %10.4f %9d %7.0f %9.3f %12.3e %12.3e %9.5f\n", static_cast<long long>(step),
                 static_cast<double>(step) * dt, atoms.n, moved, ms, c.max, c.mean, mean_eps);
     out << step << ',' << static_cast<double>(step) * dt << ',' << atoms.n << ',' << moved << ',' << ms << ','
         << c.max << ',' << c.mean << ',' << mean_eps << ',' << rep.particle_volume << ',' << rep.deposited_volume
         << '\n';
+    if (dump_out) write_dump_frame(dump_out, static_cast<long long>(step), lo, hi, atoms);
 
     if (verify) {
       // The particles' volume from LIGGGHTS's radii, and the same field computed afresh.
@@ -190,7 +229,7 @@ int run(int argc, char** argv) {
       }
     }
   }
-  if (verify && failures == 0) std::printf("check: incremental equals a fresh compute and conserves volume\n");
+  if (verify && failures == 0) std::fprintf(table, "check: incremental equals a fresh compute and conserves volume\n");
   return failures == 0 ? 0 : 1;
 }
 

@@ -4,7 +4,7 @@
 # Headers and wmake come from the Debian source package of the same version, fetched once
 # into build/openfoam/src (scripts/apt_source.sh) and reused (about 300 MB). vfe is
 # installed from BUILD_DIR into build/openfoam (include/, lib/), where the function object
-# finds it.
+# finds it; so is libvfe_mpi, which it uses on a decomposed case (-parallel).
 # Usage: hosts/openfoam/build.sh [BUILD_DIR (default build/release)]
 set -euo pipefail
 root="$(cd "$(dirname "$0")/../.." && pwd)"
@@ -34,13 +34,19 @@ if [ ! -e "$foam_src/.vfe_wmake_done" ]; then
   step "built wmake and the lnInclude folders"
 fi
 
-# The engine's install rules only (header, libvfe.so, CMake and pkg-config files).
+# The install rules of the engine and of libvfe_mpi only (headers, libraries, CMake and
+# pkg-config files).
+test -f "$build_dir/mpi/cmake_install.cmake" ||
+  { echo "openfoam: $build_dir has no libvfe_mpi (configure it where MPI is found: libopenmpi-dev)" >&2; exit 1; }
 cmake --install "$build_dir/engine" --prefix "$out" >/dev/null
-step "installed vfe into build/openfoam"
+cmake --install "$build_dir/mpi" --prefix "$out" >/dev/null
+step "installed vfe and vfe_mpi into build/openfoam"
 
 # wmake writes its objects next to the sources: build from a copy under build/.
 rm -rf "$out/obj" && mkdir -p "$out/obj" && cp -r "$root/hosts/openfoam/Make" "$root"/hosts/openfoam/*.[CH] "$out/obj/"
-export VFE_PREFIX="$out" FOAM_USER_LIBBIN="$out/lib"
+# The MPI that libvfe_mpi was built with (its pkg-config file requires mpi-c).
+VFE_MPI_CFLAGS="$(pkg-config --cflags mpi-c)" VFE_MPI_LIBS="$(pkg-config --libs mpi-c)"
+export VFE_PREFIX="$out" FOAM_USER_LIBBIN="$out/lib" VFE_MPI_CFLAGS VFE_MPI_LIBS
 (cd "$out/obj" && wmake -s libso >/dev/null)
 test -f "$out/lib/libvfeFunctionObject.so"
 step "built build/openfoam/lib/libvfeFunctionObject.so"

@@ -66,6 +66,8 @@ struct DistributedEngine final : vfe::detail::EngineBackend {
   double local_cpu_seconds = 0, local_seconds = 0, exchange_seconds = 0;  // of the last compute, this rank
   vfe_log_fn log_fn = nullptr;
   void* log_user = nullptr;
+  std::vector<std::string> shape_specs;  // registered on every local engine, in id order
+  std::vector<double> shape_reaches;     // per shape: vfe::Engine::shape_reach
 
   /// Duplicates comm (the caller may free its own).
   explicit DistributedEngine(MPI_Comm c) {
@@ -110,6 +112,13 @@ double thread_cpu_seconds() {
   return double(t.tv_sec) + 1e-9 * double(t.tv_nsec);
 }
 
+// Gives a new local engine the options, log callback and shapes of the one it replaces.
+void keep_settings(const DistributedEngine& e, vfe::Engine& local) {
+  if (e.local) local.configure(e.local->options());
+  if (e.log_fn) local.set_log_callback(e.log_fn, e.log_user);
+  for (const std::string& spec : e.shape_specs) local.add_shape(spec);
+}
+
 // Builds the local engine on the extended block and its halo plan; keeps the options and
 // log callback of the engine it replaces. Collective.
 void rebuild(DistributedEngine& e, const Index3& ghost) {
@@ -124,8 +133,7 @@ void rebuild(DistributedEngine& e, const Index3& ghost) {
     spec.cells[d] = ext.hi[d] - ext.lo[d];
   }
   auto local = std::make_unique<vfe::Engine>(spec);
-  if (e.local) local->configure(e.local->options());
-  if (e.log_fn) local->set_log_callback(e.log_fn, e.log_user);
+  keep_settings(e, *local);
   Halo halo(e.comm, vfe::mpi::cartesian_halo(dec, e.rank));
   e.dec = dec;
   e.local = std::move(local);
@@ -222,10 +230,12 @@ int owner_of(const DistributedEngine& e, const Index3& cell) {
   return -1;
 }
 
-// How far beyond a particle's centre (per axis) the footprint of a particle of max_radius
-// reaches under the local engine's method, and how many cells more the method's stencil
-// takes (trilinear's cell centres).
-double footprint_reach(const DistributedEngine& e, double max_radius, double& extra_cells) {
+// How far beyond a particle's centre (per axis) the footprint of a sphere of max_radius
+// reaches under the local engine's method, or a shaped particle's body (max_shape: its
+// scale times its shape's reach, for pmm and direct, the shapes' methods: direct deposits at
+// the body's centroid), and how many cells more the method's stencil takes (trilinear's
+// cell centres).
+double footprint_reach(const DistributedEngine& e, double max_radius, double max_shape, double& extra_cells) {
   const std::string method = e.local->option("method");
   double reach = 0;
   extra_cells = 0;
@@ -241,14 +251,14 @@ double footprint_reach(const DistributedEngine& e, double max_radius, double& ex
     extra_cells = 1;  // the 8 cells whose centres surround the particle's centre
   else
     throw Error(VFE_ERROR_UNSUPPORTED, "method " + method + " has no known footprint in vfe_mpi");
-  return reach;
+  return std::max(reach, max_shape);
 }
 
 // The reach per axis in cells, plus one cell so that a deposit never reaches the ghost
 // layer's last cells (checked after compute).
-Index3 ghost_needed(const DistributedEngine& e, double max_radius) {
+Index3 ghost_needed(const DistributedEngine& e, double max_radius, double max_shape) {
   double extra_cells = 0;
-  const double reach = footprint_reach(e, max_radius, extra_cells);
+  const double reach = footprint_reach(e, max_radius, max_shape, extra_cells);
   Index3 g{};
   for (int d = 0; d < 3; ++d)
     g[d] = static_cast<std::int64_t>(std::ceil(reach / e.spacing[d])) + static_cast<std::int64_t>(extra_cells) + 1;
@@ -260,9 +270,9 @@ Index3 ghost_needed(const DistributedEngine& e, double max_radius) {
 // and when volume beyond the mesh goes to the nearest cells the cells whose centres can be nearest to a point of it
 // (within sqrt(3) (reach + beyond) + the owning cell's diagonal of the point), plus one
 // cell so that the layer's outer edge stays clear (checked after compute).
-double poly_width_needed(const DistributedEngine& e, double max_radius, double beyond) {
+double poly_width_needed(const DistributedEngine& e, double max_radius, double max_shape, double beyond) {
   double extra_cells = 0;
-  double reach = footprint_reach(e, max_radius, extra_cells) + beyond;
+  double reach = footprint_reach(e, max_radius, max_shape, extra_cells) + beyond;
   const double h = e.poly->largest_cell;
   const std::string outside = e.local->option("outside");
   // outside=error with a tolerance sends the tolerated volume to the nearest cells too.
@@ -338,16 +348,32 @@ std::string describe(const Index3& c) {
   return "(" + std::to_string(c[0]) + ", " + std::to_string(c[1]) + ", " + std::to_string(c[2]) + ")";
 }
 
-// The rank's particles checked against the contract; returns the largest radius and, when
-// a centre lies outside the grid on a periodic axis, fills wrapped with every centre wrapped
-// into the grid (as the serial engine wraps them).
-double check_particles(const DistributedEngine& e, const vfe_particles& p, std::vector<double>& wrapped) {
-  double max_radius = 0;
+// The largest sphere radius and the farthest a shaped particle's body reaches (its scale
+// times its shape's reach) among the rank's particles; non-finite scales and unknown shape
+// ids are skipped (the local engine names them).
+std::array<double, 2> largest_reach(const DistributedEngine& e, const vfe_particles& p) {
+  std::array<double, 2> largest{0, 0};
+  for (std::int64_t i = 0; i < p.n; ++i) {
+    const double r = *at(p.radii, p.radii_stride, 1, i);
+    if (!std::isfinite(r)) continue;
+    if (!p.shape_ids) {
+      largest[0] = std::max(largest[0], r);
+      continue;
+    }
+    const std::int32_t id = *at(p.shape_ids, p.shape_ids_stride, 1, i);
+    if (id >= 0 && static_cast<std::size_t>(id) < e.shape_reaches.size())
+      largest[1] = std::max(largest[1], r * e.shape_reaches[static_cast<std::size_t>(id)]);
+  }
+  return largest;
+}
+
+// The rank's particles checked against the contract; when a centre lies outside the grid on
+// a periodic axis, fills wrapped with every centre wrapped into the grid (as the serial
+// engine wraps them).
+void check_particles(const DistributedEngine& e, const vfe_particles& p, std::vector<double>& wrapped) {
   bool wrap = false;
   for (std::int64_t i = 0; i < p.n; ++i) {
     const double* x = at(p.centres, p.centres_stride, 3, i);
-    const double r = *at(p.radii, p.radii_stride, 1, i);
-    if (std::isfinite(r) && r > max_radius) max_radius = r;
     if (!(std::isfinite(x[0]) && std::isfinite(x[1]) && std::isfinite(x[2]))) continue;  // the engine names it
     const Index3 c = centre_cell(e, x);
     if (!e.block().contains(c)) {
@@ -376,7 +402,6 @@ double check_particles(const DistributedEngine& e, const vfe_particles& p, std::
       }
     }
   }
-  return max_radius;
 }
 
 // The report over all ranks: the local reports' sums, particle grid sizes over the ranks
@@ -417,8 +442,7 @@ void rebuild_poly(DistributedEngine& e, double width) {
   vfe::mpi::GhostedPolyMesh g = vfe::mpi::build_ghosted(e.comm, p.mesh, p.boxes, width);
   Halo halo(e.comm, std::move(g.peers));  // collective: before anything that may fail on one rank
   auto local = std::make_unique<vfe::Engine>(g.mesh.view());
-  if (e.local) local->configure(e.local->options());
-  if (e.log_fn) local->set_log_callback(e.log_fn, e.log_user);
+  keep_settings(e, *local);
   e.local = std::move(local);
   e.halo = std::move(halo);
   e.extended.assign(static_cast<std::size_t>(e.local->cell_count()), 0.0);
@@ -452,13 +476,8 @@ std::string wrong_rank(const vfe_particles& p, std::int64_t i, const std::string
 
 // A polyMesh rank's particles checked against the contract: a centre in a ghost cell
 // fails (naming the owner); centres in no cell held here go to `unlocated` for
-// place_outside_centres. Returns the largest radius.
-double check_poly_particles(const DistributedEngine& e, const vfe_particles& p, std::vector<std::int64_t>& unlocated) {
-  double max_radius = 0;
-  for (std::int64_t i = 0; i < p.n; ++i) {
-    const double r = *at(p.radii, p.radii_stride, 1, i);
-    if (std::isfinite(r) && r > max_radius) max_radius = r;
-  }
+// place_outside_centres.
+void check_poly_particles(const DistributedEngine& e, const vfe_particles& p, std::vector<std::int64_t>& unlocated) {
   const std::vector<std::int64_t> cells = locate_centres(e, p);
   const std::int64_t owned = e.owned_cells();
   for (std::int64_t i = 0; i < p.n; ++i) {
@@ -472,7 +491,6 @@ double check_poly_particles(const DistributedEngine& e, const vfe_particles& p, 
                   wrong_rank(p, i, "global cell " + std::to_string(e.poly->cell_ids[static_cast<std::size_t>(c)]),
                              e.poly->ghost_owner[static_cast<std::size_t>(c - owned)], e.rank));
   }
-  return max_radius;
 }
 
 // Collective. The owners of centres no rank's local mesh placed (every rank passes its own
@@ -546,39 +564,43 @@ double place_outside_centres(const DistributedEngine& e, const vfe_particles& p,
 void DistributedEngine::compute(const vfe_particles& p, std::span<double> out) {
   std::vector<double> wrapped;
   std::vector<std::int64_t> unlocated;  // a polyMesh's particles whose centres lie in no cell held here
-  double max_radius = 0, maxima[2] = {0, 0};
+  double maxima[3] = {0, 0, 0};  // largest sphere radius, shape reach, unlocated centres
   collective(
       *this,
       [&] {
         require(p.n >= 0, "n must be >= 0");
         require(p.n == 0 || (p.centres && p.radii), "centres and radii must not be NULL");
-        if (p.shape_ids)
+        // The serial engine sizes a shape's auto template from the largest particle of the
+        // compute and the mesh's smallest cell: here each rank's own, so the fields would differ.
+        if (p.shape_ids && p.n > 0 && local->option("method") == "pmm" && local->option("particle_grid") == "auto")
           throw Error(VFE_ERROR_UNSUPPORTED,
-                      "a distributed engine computes spheres only: use vfe_compute or vfe_compute_particles with "
-                      "shape_ids = NULL");
+                      "method=pmm with particle_grid=auto sizes a shape's template from the largest particle of the "
+                      "compute, which differs per rank on a distributed engine: give particle_grid=N for shapes");
         if (!p.ids && p.n > 0 && local->option("method") == "pmm" && local->option("orientation") == "random")
           throw Error(VFE_ERROR_INVALID_ARGUMENT,
                       "method=pmm with orientation=random rotates each particle by its id, which must not depend on "
                       "the rank: pass the particle ids (vfe_particles.ids, vfe_compute_particles)");
         if (poly) {
-          max_radius = check_poly_particles(*this, p, unlocated);
-          maxima[1] = double(unlocated.size());
+          check_poly_particles(*this, p, unlocated);
+          maxima[2] = double(unlocated.size());
         } else {
-          max_radius = check_particles(*this, p, wrapped);
+          check_particles(*this, p, wrapped);
         }
-        maxima[0] = max_radius;
+        const std::array<double, 2> largest = largest_reach(*this, p);
+        maxima[0] = largest[0];
+        maxima[1] = largest[1];
       },
       maxima);
-  max_radius = maxima[0];
+  const double max_radius = maxima[0], max_shape = maxima[1];
   // Every rank has the same largest radius and options, so all decide alike.
   if (poly) {
     double beyond = 0;
-    if (maxima[1] > 0)  // some centres lie in no cell this rank holds
+    if (maxima[2] > 0)  // some centres lie in no cell this rank holds
       collective(*this, [&] { beyond = place_outside_centres(*this, p, unlocated); });
-    const double width = poly_width_needed(*this, max_radius, beyond);
+    const double width = poly_width_needed(*this, max_radius, max_shape, beyond);
     if (width > poly->width) collective(*this, [&] { rebuild_poly(*this, width); });
   } else {
-    const Index3 need = ghost_needed(*this, max_radius);
+    const Index3 need = ghost_needed(*this, max_radius, max_shape);
     if (need[0] > dec.ghost[0] || need[1] > dec.ghost[1] || need[2] > dec.ghost[2])
       collective(*this, [&] {
         rebuild(*this, {std::max(need[0], dec.ghost[0]), std::max(need[1], dec.ghost[1]),
@@ -776,10 +798,19 @@ void DistributedEngine::void_fraction(std::span<double> out) const {
   }
 }
 
-std::int32_t DistributedEngine::add_shape(std::string_view) {
-  throw Error(VFE_ERROR_UNSUPPORTED,
-              "a distributed engine computes spheres only (its ghost layer is sized by radii); use one vfe engine "
-              "per rank on the whole mesh for shapes");
+std::int32_t DistributedEngine::add_shape(std::string_view spec) {
+  // Read on a scratch engine first, so a spec one rank cannot read (a mesh file it does not
+  // see) adds the shape on no rank and the ids stay the same on every rank.
+  double reach = 0;
+  collective(*this, [&] {
+    vfe::Engine scratch(vfe::CartesianGridSpec{});
+    reach = scratch.shape_reach(scratch.add_shape(spec));
+  });
+  std::int32_t id = -1;
+  collective(*this, [&] { id = local->add_shape(spec); });
+  shape_specs.emplace_back(spec);  // rebuilt local engines register it again (keep_settings)
+  shape_reaches.push_back(reach);
+  return id;
 }
 
 void DistributedEngine::weights(std::span<std::int64_t> offsets, std::span<std::int64_t> cells,

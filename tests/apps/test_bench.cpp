@@ -162,7 +162,7 @@ TEST(Bench, AllIsEveryEngineMethod) {
   // The engine's own list through its C API (vfe_method_name), independent of the bench.
   std::vector<std::string> names;
   for (std::int32_t i = 0; vfe_method_name(i); ++i) names.emplace_back(vfe_method_name(i));
-  ASSERT_EQ(names.size(), 8u);  // direct, pmm, exact, divided, gaussian, porous_cube, big_particle, trilinear
+  ASSERT_EQ(names.size(), 9u);  // direct, pmm, exact, divided, gaussian, porous_cube, big_particle, trilinear, auto
   ASSERT_EQ(out.rows.size(), names.size());
   for (std::size_t i = 0; i < names.size(); ++i) EXPECT_EQ(out.rows[i].method, names[i]);
 }

@@ -11,7 +11,11 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
+#include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <map>
 #include <random>
 #include <regex>
 #include <sstream>
@@ -25,6 +29,7 @@ namespace {
 
 struct DumpOptions {
   bool ids = true;
+  bool velocities = true;
   bool shuffled = false;  ///< write the particles in a shuffled order
   int n = 40;
 };
@@ -45,7 +50,9 @@ std::string frame_text(std::int64_t timestep, int k, const DumpOptions& o = {}) 
     for (double& xd : x) xd = r + (0.008 - 2 * r) * u(rng);
     for (double& xd : x) xd = std::clamp(xd + k * 0.0003 * (u(rng) - 0.5), r, 0.008 - r);
     for (double xd : x) line << ' ' << xd;
-    line << ' ' << r << ' ' << 0.01 * (i + 1) << " 0 " << -0.02 * k << " \n";
+    line << ' ' << r;
+    if (o.velocities) line << ' ' << 0.01 * (i + 1) << " 0 " << -0.02 * k;
+    line << " \n";
     lines.push_back(line.str());
   }
   if (o.shuffled) std::shuffle(lines.begin(), lines.end(), std::mt19937(5));
@@ -53,7 +60,7 @@ std::string frame_text(std::int64_t timestep, int k, const DumpOptions& o = {}) 
   t << "ITEM: TIMESTEP\n"
     << timestep << "\nITEM: NUMBER OF ATOMS\n"
     << o.n << "\nITEM: BOX BOUNDS ff ff ff\n0 0.008\n0 0.008\n0 0.008\nITEM: ATOMS " << (o.ids ? "id " : "")
-    << "type x y z radius vx vy vz \n";
+    << "type x y z radius" << (o.velocities ? " vx vy vz" : "") << " \n";
   for (const auto& l : lines) t << l;
   return t.str();
 }
@@ -72,12 +79,26 @@ struct SeriesScene {
   }
 };
 
+/// The polyMesh of the OpenFOAM tests: 10 x 10 x 30 cells of 2 mm from the origin.
+const std::string kBoxMesh = "  - {name: box, type: polymesh, path: " VFE_SOURCE_DIR "/data/openfoam/box_uniform_10x10x30}\n";
+
 /// The message of the error run_scene throws on the scene (empty when none).
 std::string run_error(const fs::path& config) {
   try {
     run_scene(load_config(config), RunOptions{});
   } catch (const std::exception& e) {
     return e.what();
+  }
+  return "";
+}
+
+/// The message of the ConfigError loading the scene with these particles gives ("" if none).
+std::string config_error(SeriesScene& s, const std::string& particles) {
+  s.write_config(particles);
+  try {
+    (void)load_config(s.config);
+  } catch (const ConfigError& err) {
+    return err.what();
   }
   return "";
 }
@@ -283,8 +304,7 @@ TEST(RunSeries, OpenFoamTimeFolderPerFrame) {
   test::write_text(s.dir / "a.dump", frame_text(1000, 0));
   test::write_text(s.dir / "b.dump", frame_text(18000, 2));
   test::write_text(s.dir / "series.yaml",
-                   "name: series\nparticles:\n  files: [a.dump, b.dump]\n  dem_dt: 1.0e-5\nmeshes:\n"
-                   "  - {name: box, type: polymesh, path: " VFE_SOURCE_DIR "/data/openfoam/box_uniform_10x10x30}\n"
+                   "name: series\nparticles:\n  files: [a.dump, b.dump]\n  dem_dt: 1.0e-5\nmeshes:\n" + kBoxMesh +
                    "methods: [pmm]\nreference: exact\nthreads: 1\noutput: out\nfoam: true\n");
   const RunResult res = run_scene(load_config(s.dir / "series.yaml"), RunOptions{});
   for (const char* time : {"0.01", "0.18"}) {  // 18000 * 1e-5 is 0.18000000000000002 in doubles
@@ -357,22 +377,13 @@ TEST(RunSeries, BadInputsNameTheFileAndTheFix) {
   EXPECT_NE(run_error(s.config).find("frames [1, 3] is outside the 1 frame(s)"), std::string::npos);
 
   // Config keys that do not go together.
-  auto config_error = [&](const std::string& particles) {
-    s.write_config(particles);
-    try {
-      (void)load_config(s.config);
-    } catch (const ConfigError& err) {
-      return std::string(err.what());
-    }
-    return std::string();
-  };
-  EXPECT_NE(config_error("  file: a.dump\n  files: [a.dump]\n").find("not both"), std::string::npos);
-  EXPECT_NE(config_error("  files: [a.dump]\n  frame: 0\n").find("'frame' picks one frame"), std::string::npos);
-  EXPECT_NE(config_error("  file: a.dump\n  dem_dt: 1.0e-5\n").find("belong to a series"), std::string::npos);
-  EXPECT_NE(config_error("  files: [a.dump]\n  dem_dt: 0\n").find("dem_dt must be > 0"), std::string::npos);
-  EXPECT_NE(config_error("  files: [a.dump]\n  frames: some\n").find("frames must be 'all'"), std::string::npos);
-  EXPECT_NE(config_error("  files: [a.dump]\n  timesteps: [9, 3]\n").find("is before from"), std::string::npos);
-  EXPECT_NE(config_error("  files: []\n").find("empty list"), std::string::npos);
+  EXPECT_NE(config_error(s, "  file: a.dump\n  files: [a.dump]\n").find("not both"), std::string::npos);
+  EXPECT_NE(config_error(s, "  files: [a.dump]\n  frame: 0\n").find("'frame' picks one frame"), std::string::npos);
+  EXPECT_NE(config_error(s, "  file: a.dump\n  dem_dt: 1.0e-5\n").find("belong to a series"), std::string::npos);
+  EXPECT_NE(config_error(s, "  files: [a.dump]\n  dem_dt: 0\n").find("dem_dt must be > 0"), std::string::npos);
+  EXPECT_NE(config_error(s, "  files: [a.dump]\n  frames: some\n").find("frames must be 'all'"), std::string::npos);
+  EXPECT_NE(config_error(s, "  files: [a.dump]\n  timesteps: [9, 3]\n").find("is before from"), std::string::npos);
+  EXPECT_NE(config_error(s, "  files: []\n").find("empty list"), std::string::npos);
   // Commands of one frame refuse a series.
   s.write_config("  files: [a.dump]\n");
   try {
@@ -381,4 +392,286 @@ TEST(RunSeries, BadInputsNameTheFileAndTheFix) {
   } catch (const ConfigError& err) {
     EXPECT_NE(std::string(err.what()).find("takes one frame"), std::string::npos) << err.what();
   }
+}
+
+namespace {
+
+/// Rows of a weights CSV: (particle, cell) -> fraction.
+std::map<std::pair<std::int64_t, std::int64_t>, double> weights_of(const fs::path& csv) {
+  std::map<std::pair<std::int64_t, std::int64_t>, double> w;
+  for (const auto& row : test::read_csv(csv)) w[{std::stoll(row.at("particle")), std::stoll(row.at("cell"))}] = std::stod(row.at("fraction"));
+  return w;
+}
+
+void expect_same_weights(const fs::path& a, const fs::path& b, double tolerance) {
+  const auto wa = weights_of(a), wb = weights_of(b);
+  ASSERT_EQ(wa.size(), wb.size()) << a << " and " << b;
+  ASSERT_GT(wa.size(), 0u);
+  for (const auto& [key, fraction] : wa) {
+    const auto it = wb.find(key);
+    ASSERT_NE(it, wb.end()) << "particle " << key.first << ", cell " << key.second << " only in " << a;
+    EXPECT_NEAR(fraction, it->second, tolerance) << "particle " << key.first << ", cell " << key.second;
+  }
+}
+
+void expect_near_all(const std::vector<double>& a, const std::vector<double>& b, double tolerance) {
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t i = 0; i < a.size(); ++i) EXPECT_NEAR(a[i], b[i], tolerance) << "value " << i;
+}
+
+}  // namespace
+
+// coupling: true on a series: per frame and method the weights and Us equal a single-frame
+// coupling run on that frame, also for pmm with incremental=1 (whose deposits carry over).
+TEST(RunSeries, CouplingPerFrameEqualsSingleFrameRuns) {
+  SeriesScene s;
+  const std::vector<std::int64_t> steps = {1000, 18000};
+  test::write_text(s.dir / "a.dump", frame_text(steps[0], 0));
+  test::write_text(s.dir / "b.dump", frame_text(steps[1], 3));
+  const std::string methods = "[pmm, exact, {method: pmm, options: \"incremental=1\", label: pmm_incremental}]";
+  const std::string rest = "meshes:\n" + kBoxMesh + "methods: " + methods +
+                           "\nreference: exact\nthreads: 1\nrepeats: 1\nfoam: true\ncoupling: true\n";
+  test::write_text(s.dir / "series.yaml",
+                   "name: series\nparticles:\n  files: [a.dump, b.dump]\n  dem_dt: 1.0e-5\noutput: out\n" + rest);
+  RunOptions opt;
+  opt.vtk = true;
+  const RunResult series = run_scene(load_config(s.dir / "series.yaml"), opt);
+  ASSERT_EQ(series.frames.size(), 6u);
+  const std::vector<std::string> times = {"0.01", "0.18"};
+  for (std::size_t k = 0; k < steps.size(); ++k) {
+    SCOPED_TRACE("timestep " + std::to_string(steps[k]));
+    const std::string dump = k == 0 ? "a.dump" : "b.dump";
+    test::write_text(s.dir / "one.yaml", "name: one\nparticles:\n  file: " + dump + "\noutput: one_" +
+                                             std::to_string(k) + "\n" + rest);
+    const RunResult one = run_scene(load_config(s.dir / "one.yaml"), RunOptions{});
+    const std::string vtu = test::read_text(series.output / "frames" / ("box_" + std::to_string(steps[k]) + ".vtu"));
+    for (const std::string label : {"pmm", "exact", "pmm_incremental"}) {
+      SCOPED_TRACE(label);
+      // Incremental deposits are old ones moved: equal to round-off, not bitwise.
+      const double tolerance = label == "pmm_incremental" ? 1e-12 : 0.0;
+      expect_same_weights(series.output / "frames" / ("box_weights_" + label + "_" + std::to_string(steps[k]) + ".csv"),
+                          one.output / ("box_weights_" + label + ".csv"), tolerance);
+      const auto us = test::read_foam_vectors(series.output / "box" / times[k] / ("Us_" + label));
+      expect_near_all(us, test::read_foam_vectors(one.output / "box" / "0" / ("Us_" + label)), 1e-12);
+      EXPECT_GT(std::count_if(us.begin(), us.end(), [](double u) { return u != 0; }), 40);
+      EXPECT_NE(vtu.find("Name=\"Us_" + label + "\" NumberOfComponents=\"3\""), std::string::npos);
+    }
+    // The plain Us beside voidfraction is the default method's (pmm).
+    const std::string plain = test::read_text(series.output / "box" / times[k] / "Us"),
+                      pmm = test::read_text(series.output / "box" / times[k] / "Us_pmm");
+    EXPECT_EQ(plain.substr(plain.find("internalField")), pmm.substr(pmm.find("internalField")));
+  }
+}
+
+// Two particles in known cells of the 2 mm box with known velocities: each weight is 1 in
+// its own cell, and Us is the particle's velocity there, or in a shared cell the
+// volume-weighted mean of the two; 0 elsewhere.
+TEST(RunSeries, CouplingOfTwoParticlesInKnownCells) {
+  SeriesScene s;
+  struct P {
+    double x[3], r, v[3];
+  };
+  auto dump = [](std::int64_t step, const std::vector<P>& ps) {
+    std::ostringstream o;
+    o.precision(17);
+    o << "ITEM: TIMESTEP\n" << step << "\nITEM: NUMBER OF ATOMS\n" << ps.size()
+      << "\nITEM: BOX BOUNDS ff ff ff\n0 0.02\n0 0.02\n0 0.06\nITEM: ATOMS id type x y z radius vx vy vz\n";
+    for (std::size_t i = 0; i < ps.size(); ++i)
+      o << i + 1 << " 1 " << ps[i].x[0] << ' ' << ps[i].x[1] << ' ' << ps[i].x[2] << ' ' << ps[i].r << ' ' << ps[i].v[0]
+        << ' ' << ps[i].v[1] << ' ' << ps[i].v[2] << '\n';
+    return o.str();
+  };
+  const P a{{0.001, 0.001, 0.001}, 0.0004, {1, 2, 3}};           // cell (0, 0, 0)
+  const P b{{0.003, 0.001, 0.005}, 0.0005, {-1, 0, 0.5}};        // cell (1, 0, 2)
+  const P a2{{0.0006, 0.001, 0.001}, 0.0004, {1, 2, 3}};         // both in cell (0, 0, 0)
+  const P b2{{0.0015, 0.001, 0.001}, 0.00045, {-1, 0, 0.5}};
+  test::write_text(s.dir / "f.dump", dump(10, {a, b}) + dump(20, {a2, b2}));
+  test::write_text(s.dir / "series.yaml", "name: two\nparticles:\n  file: f.dump\n  frames: all\nmeshes:\n" + kBoxMesh +
+                                              "methods: [direct, exact]\nreference: exact\nthreads: 1\noutput: out\n"
+                                              "foam: true\ncoupling: true\n");
+  const RunResult res = run_scene(load_config(s.dir / "series.yaml"), RunOptions{});
+  auto cell = [](int i, int j, int k) { return static_cast<std::int64_t>(i + 10 * (j + 10 * k)); };  // blockMesh order
+  const double va = std::pow(a.r, 3), vb = std::pow(b2.r, 3);  // volumes / (4/3 pi)
+  struct Expect {
+    std::int64_t step;
+    std::string time;
+    std::vector<std::int64_t> cells;                    // per particle
+    std::map<std::int64_t, std::array<double, 3>> us;  // per cell with solid
+  };
+  std::array<double, 3> mean{};
+  for (int d = 0; d < 3; ++d) mean[d] = (va * a.v[d] + vb * b.v[d]) / (va + vb);
+  const std::vector<Expect> expects = {
+      {10, "10", {cell(0, 0, 0), cell(1, 0, 2)}, {{cell(0, 0, 0), {1, 2, 3}}, {cell(1, 0, 2), {-1, 0, 0.5}}}},
+      {20, "20", {cell(0, 0, 0), cell(0, 0, 0)}, {{cell(0, 0, 0), mean}}}};
+  for (const Expect& e : expects) {
+    for (const std::string label : {"direct", "exact"}) {
+      SCOPED_TRACE(label + " at timestep " + std::to_string(e.step));
+      const auto rows = test::read_csv(res.output / "frames" / ("box_weights_" + label + "_" + std::to_string(e.step) + ".csv"));
+      ASSERT_EQ(rows.size(), 2u);
+      for (std::size_t p = 0; p < 2; ++p) {
+        EXPECT_EQ(std::stoll(rows[p].at("particle")), static_cast<std::int64_t>(p));
+        EXPECT_EQ(std::stoll(rows[p].at("id")), static_cast<std::int64_t>(p + 1));
+        EXPECT_EQ(std::stoll(rows[p].at("cell")), e.cells[p]);
+        EXPECT_DOUBLE_EQ(std::stod(rows[p].at("fraction")), 1.0);
+      }
+      const auto us = test::read_foam_vectors(res.output / "box" / e.time / ("Us_" + label));
+      ASSERT_EQ(us.size(), 3u * 3000);
+      for (std::int64_t c = 0; c < 3000; ++c) {
+        const auto it = e.us.find(c);
+        for (int d = 0; d < 3; ++d)
+          ASSERT_NEAR(us[3 * c + d], it == e.us.end() ? 0.0 : it->second[d], 1e-14) << "cell " << c << " component " << d;
+      }
+    }
+  }
+}
+
+// coupling: true on a series whose second frame has no velocities stops before any compute,
+// naming that dump, its timestep and the fix.
+TEST(RunSeries, CouplingNeedsVelocitiesInEveryFrame) {
+  SeriesScene s;
+  test::write_text(s.dir / "a.dump", frame_text(100, 0));
+  test::write_text(s.dir / "b.dump", frame_text(200, 1, {.velocities = false}));
+  s.write_config("  files: [a.dump, b.dump]\n", "[pmm]", "coupling: true\n");
+  const std::string e = run_error(s.config);
+  EXPECT_NE(e.find("coupling: true needs the particles' velocities"), std::string::npos) << e;
+  EXPECT_NE(e.find("the dump b.dump has no vx vy vz columns (timestep 200)"), std::string::npos) << e;
+  EXPECT_NE(e.find("dump them"), std::string::npos) << e;
+  EXPECT_FALSE(fs::exists(s.dir / "out" / "frames.csv"));
+}
+
+namespace {
+
+/// The rows of a series run without the compute times (which differ from run to run).
+std::vector<std::string> rows_without_times(const RunResult& r) {
+  std::vector<std::string> out;
+  char buf[512];
+  for (const FrameRow& f : r.frames) {
+    std::snprintf(buf, sizeof buf, "%s %s %lld %lld %.17g %.17g %.17g %.17g %lld", f.mesh.c_str(), f.label.c_str(),
+                  static_cast<long long>(f.frame), static_cast<long long>(f.timestep), f.time, f.max_excess,
+                  f.mean_excess, f.max_exact_jump, static_cast<long long>(f.changed_cells));
+    out.push_back(buf);
+  }
+  return out;
+}
+
+/// Lines of the frames.csv of a run (0 when there is none).
+std::int64_t csv_lines(const fs::path& file) {
+  if (!fs::exists(file)) return 0;
+  const std::string text = test::read_text(file);
+  return std::count(text.begin(), text.end(), '\n');
+}
+
+}  // namespace
+
+// particles: {command: ...}: the frames a command prints give the fields, weights and jumps
+// of the same dumps given as files.
+TEST(LiveSeries, CommandOutputEqualsTheSameDumpsAsFiles) {
+  SeriesScene s;
+  for (int k = 0; k < 3; ++k) test::write_text(s.dir / ("f" + std::to_string(k) + ".dump"), frame_text(100 * (k + 1), k, {.shuffled = k == 1}));
+  const std::string methods = "[pmm, {method: pmm, options: \"incremental=1\", label: pmm_incremental}, exact]";
+  s.write_config("  files: [f0.dump, f1.dump, f2.dump]\n  dem_dt: 1.0e-5\n", methods,
+                 "vtk: true\ncoupling: true\noptions: \"outside=nearest deterministic=1\"\n");
+  const RunResult files = run_scene(load_config(s.config), RunOptions{});
+  s.write_config("  command: \"cat f0.dump f1.dump f2.dump\"\n  dem_dt: 1.0e-5\n", methods,
+                 "vtk: true\ncoupling: true\noptions: \"outside=nearest deterministic=1\"\n");
+  RunOptions live_opt;
+  live_opt.output = s.dir / "live";
+  const RunResult live = run_scene(load_config(s.config), live_opt);
+  ASSERT_EQ(live.frames.size(), 9u);
+  EXPECT_EQ(rows_without_times(live), rows_without_times(files));
+  ASSERT_EQ(live.series.size(), 3u);
+  for (std::size_t i = 0; i < 3; ++i) {
+    EXPECT_EQ(live.series[i].frames, 3);
+    EXPECT_EQ(live.series[i].max_excess, files.series[i].max_excess);
+    EXPECT_EQ(live.series[i].mean_excess, files.series[i].mean_excess);
+  }
+  for (const std::string f : {"grid_100.vti", "grid_200.vti", "grid_300.vti", "particles_200.vtp",
+                              "grid_weights_pmm_300.csv", "grid_weights_pmm_incremental_200.csv",
+                              "grid_weights_exact_100.csv"}) {
+    SCOPED_TRACE(f);
+    ASSERT_TRUE(fs::is_regular_file(live.output / "frames" / f));
+    EXPECT_EQ(test::read_text(live.output / "frames" / f), test::read_text(files.output / "frames" / f));
+  }
+  EXPECT_EQ(test::read_text(live.output / "grid.pvd"), test::read_text(files.output / "grid.pvd"));
+}
+
+// Each frame is computed, and its reports written, as soon as it is complete: the command
+// prints its second frame only once frames.csv holds the first.
+TEST(LiveSeries, FramesAreComputedAsTheyCome) {
+  SeriesScene s;
+  test::write_text(s.dir / "a.dump", frame_text(100, 0));
+  test::write_text(s.dir / "b.dump", frame_text(200, 1));
+  s.write_config("  command: \"cat a.dump; i=0; while [ ! -s out/frames.csv ] && [ $i -lt 400 ]; do sleep 0.05; "
+                 "i=$((i+1)); done; [ -s out/frames.csv ] || exit 9; cat b.dump\"\n",
+                 "[pmm, exact]");
+  const std::string e = run_error(s.config);
+  EXPECT_EQ(e, "");
+  EXPECT_EQ(csv_lines(s.dir / "out" / "frames.csv"), 1 + 2 * 2);
+}
+
+// A command that fails, prints a frame cut short, prints nothing, cannot be found or prints
+// its frames out of order stops the run naming the command and what happened; the reports
+// of the frames finished before are written.
+TEST(LiveSeries, FailuresNameTheCommandAndKeepFinishedFrames) {
+  SeriesScene s;
+  test::write_text(s.dir / "a.dump", frame_text(100, 0));
+  test::write_text(s.dir / "b.dump", frame_text(200, 1));
+  auto live_error = [&](const std::string& command) {
+    fs::remove_all(s.dir / "out");
+    s.write_config("  command: \"" + command + "\"\n", "[pmm, exact]");
+    return run_error(s.config);
+  };
+  std::string e = live_error("cat a.dump; exit 3");
+  EXPECT_NE(e.find("command 'cat a.dump; exit 3' exited with status 3 (after 1 complete frame(s)"), std::string::npos)
+      << e;
+  EXPECT_EQ(csv_lines(s.dir / "out" / "frames.csv"), 1 + 2);
+  EXPECT_EQ(test::read_csv(s.dir / "out" / "frame_jumps.csv").at(0).at("frames"), "1");
+
+  e = live_error("cat a.dump; head -c 900 b.dump");
+  EXPECT_NE(e.find("the output of command 'cat a.dump; head -c 900 b.dump'"), std::string::npos) << e;
+  EXPECT_NE(e.find("after 1 complete frame(s)"), std::string::npos) << e;
+  EXPECT_EQ(csv_lines(s.dir / "out" / "frames.csv"), 1 + 2);
+
+  e = live_error("no_such_program_of_vfe");
+  EXPECT_NE(e.find("command 'no_such_program_of_vfe' exited with status 127 (the shell did not find the program) "
+                   "(before any complete frame)"),
+            std::string::npos)
+      << e;
+  EXPECT_FALSE(fs::exists(s.dir / "out" / "frames.csv"));
+  e = live_error("true");
+  EXPECT_NE(e.find("command 'true': ended without printing a frame"), std::string::npos) << e;
+  e = live_error("cat b.dump a.dump");
+  EXPECT_NE(e.find("printed timestep 100 after timestep 200"), std::string::npos) << e;
+  EXPECT_EQ(csv_lines(s.dir / "out" / "frames.csv"), 1 + 2);
+  // Velocities are checked as frames come.
+  test::write_text(s.dir / "c.dump", frame_text(300, 2, {.velocities = false}));
+  fs::remove_all(s.dir / "out");
+  s.write_config("  command: \"cat a.dump c.dump\"\n", "[pmm]", "coupling: true\n");
+  e = run_error(s.config);
+  EXPECT_NE(e.find("the dump command 'cat a.dump c.dump' has no vx vy vz columns (timestep 300)"), std::string::npos)
+      << e;
+  EXPECT_EQ(csv_lines(s.dir / "out" / "frames.csv"), 1 + 1);
+
+  // Keys that do not go with a command.
+  EXPECT_NE(config_error(s, "  command: \"cat a.dump\"\n  files: [a.dump]\n").find("give no 'file'"), std::string::npos);
+  EXPECT_NE(config_error(s, "  command: \"cat a.dump\"\n  frames: [-2, -1]\n").find("counted as they come"),
+            std::string::npos);
+  EXPECT_NE(config_error(s, "  command: \"\"\n").find("command is empty"), std::string::npos);
+}
+
+// frames: [first, last] and timesteps on a command: the frames outside are read and left
+// out, and once the last frame asked for is in, the command is stopped.
+TEST(LiveSeries, RangesPickFramesAndStopTheCommand) {
+  SeriesScene s;
+  for (int k = 0; k < 4; ++k) test::write_text(s.dir / ("f" + std::to_string(k) + ".dump"), frame_text(100 * (k + 1), k));
+  s.write_config("  command: \"cat f0.dump f1.dump f2.dump f3.dump\"\n  timesteps: [200, ~]\n  frames: [1, -1]\n",
+                 "[pmm]");
+  RunResult r = run_scene(load_config(s.config), RunOptions{});
+  EXPECT_EQ(r.frames.size(), 2u);
+  EXPECT_EQ(r.frames.at(0).timestep, 300);
+  const auto start = std::chrono::steady_clock::now();
+  s.write_config("  command: \"cat f0.dump f1.dump; sleep 60\"\n  frames: [0, 1]\n", "[pmm]");
+  r = run_scene(load_config(s.config), RunOptions{});
+  EXPECT_EQ(r.frames.size(), 2u);
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 20.0);
 }

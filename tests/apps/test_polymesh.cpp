@@ -49,50 +49,6 @@ std::string tiny_dump(int n, unsigned seed) {
   return o.str();
 }
 
-std::vector<std::string> split_csv_line(const std::string& s) {
-  // Quoted fields (notes may hold commas) are kept whole.
-  std::vector<std::string> v;
-  std::string cell;
-  bool quoted = false;
-  for (std::size_t i = 0; i < s.size(); ++i) {
-    const char c = s[i];
-    if (quoted) {
-      if (c == '"' && i + 1 < s.size() && s[i + 1] == '"') {
-        cell += '"';
-        ++i;
-      } else if (c == '"') {
-        quoted = false;
-      } else {
-        cell += c;
-      }
-    } else if (c == '"') {
-      quoted = true;
-    } else if (c == ',') {
-      v.push_back(cell);
-      cell.clear();
-    } else {
-      cell += c;
-    }
-  }
-  v.push_back(cell);
-  return v;
-}
-
-std::vector<std::map<std::string, std::string>> read_csv(const fs::path& file) {
-  std::istringstream in(test::read_text(file));
-  std::string line;
-  std::vector<std::string> head;
-  std::vector<std::map<std::string, std::string>> rows;
-  if (std::getline(in, line)) head = split_csv_line(line);
-  while (std::getline(in, line)) {
-    const auto v = split_csv_line(line);
-    std::map<std::string, std::string> row;
-    for (std::size_t i = 0; i < head.size() && i < v.size(); ++i) row[head[i]] = v[i];
-    rows.push_back(row);
-  }
-  return rows;
-}
-
 /// An OpenFOAM volScalarField as written: header entries, the internalField values and the
 /// boundaryField text.
 struct FoamField {
@@ -204,7 +160,7 @@ TEST(PolyMeshRun, BoxUniformEndToEnd) {
   ASSERT_EQ(res.rows.size(), 12u);
   const fs::path csv = res.output / "results.csv";
   ASSERT_TRUE(fs::exists(csv));
-  const auto rows = read_csv(csv);
+  const auto rows = test::read_csv(csv);
   ASSERT_EQ(rows.size(), 12u);
   for (const auto& row : rows) {
     SCOPED_TRACE(row.at("mesh") + " / " + row.at("method"));
@@ -527,7 +483,7 @@ TEST(PolyMeshStudy, EveryMeshKindWithChiFromTheMeanCubeRoot) {
   // The skipped points are in the files with their reason, and compared with nothing.
   for (const auto& c : res.comparisons) EXPECT_FALSE((c.mesh == "box" || c.mesh == "graded") && c.family == "trilinear");
   bool skipped_row = false;
-  for (const auto& row : read_csv(res.output / "study.csv")) {
+  for (const auto& row : test::read_csv(res.output / "study.csv")) {
     if (row.at("mesh") == "box" && row.at("family") == "trilinear") {
       EXPECT_EQ(row.at("status"), "skipped");
       EXPECT_EQ(row.at("mesh_type"), "polymesh");
@@ -581,31 +537,21 @@ TEST(PolyMeshRun, CouplingFieldsOfAUniformVelocity) {
     const std::string us_text = test::read_text(time_dir / ("Us_" + label));
     EXPECT_NE(us_text.find("class       volVectorField;"), std::string::npos);
     EXPECT_NE(us_text.find("dimensions      [0 1 -1 0 0 0 0];"), std::string::npos);
-    const auto list = us_text.find("nonuniform List<vector>");
-    ASSERT_NE(list, std::string::npos);
-    std::istringstream vs(us_text.substr(list + 23));
-    std::size_t count = 0;
-    std::string tok;
-    vs >> count >> tok;
-    ASSERT_EQ(tok, "(");
+    const std::vector<double> us = test::read_foam_vectors(time_dir / ("Us_" + label));
     const FoamField eps = parse_foam_field(time_dir / ("voidfraction_" + label));
-    ASSERT_EQ(count, eps.values.size());
+    const std::size_t count = eps.values.size();
+    ASSERT_EQ(us.size(), 3 * count);
     std::size_t solid_cells = 0;
     for (std::size_t c = 0; c < count; ++c) {
-      char open = 0, close = 0;
-      double u[3];
-      vs >> open >> u[0] >> u[1] >> u[2] >> close;
-      ASSERT_EQ(open, '(');
-      ASSERT_EQ(close, ')');
       const bool solid = eps.values[c] < 1.0;
       solid_cells += solid;
       for (int d = 0; d < 3; ++d)
-        EXPECT_NEAR(u[d], solid ? velocity[d] : 0.0, 1e-12) << "cell " << c << " component " << d;
+        EXPECT_NEAR(us[3 * c + d], solid ? velocity[d] : 0.0, 1e-12) << "cell " << c << " component " << d;
     }
     EXPECT_GT(solid_cells, 12u);  // the corner particle alone spans eight cells
 
     std::map<std::int64_t, double> sums;
-    for (const auto& row : read_csv(res.output / ("box_weights_" + label + ".csv"))) {
+    for (const auto& row : test::read_csv(res.output / ("box_weights_" + label + ".csv"))) {
       const std::int64_t cell = std::stoll(row.at("cell"));
       EXPECT_GE(cell, 0);
       EXPECT_LT(cell, static_cast<std::int64_t>(count));

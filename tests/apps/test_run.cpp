@@ -61,28 +61,6 @@ repeats: 2
 output: out
 )";
 
-std::vector<std::map<std::string, std::string>> read_csv(const fs::path& file) {
-  std::istringstream in(test::read_text(file));
-  std::string line;
-  std::vector<std::string> head;
-  std::vector<std::map<std::string, std::string>> rows;
-  auto split = [](const std::string& s) {
-    std::vector<std::string> v;
-    std::string cell;
-    std::istringstream ls(s);
-    while (std::getline(ls, cell, ',')) v.push_back(cell);
-    return v;
-  };
-  if (std::getline(in, line)) head = split(line);
-  while (std::getline(in, line)) {
-    const auto v = split(line);
-    std::map<std::string, std::string> row;
-    for (std::size_t i = 0; i < head.size() && i < v.size(); ++i) row[head[i]] = v[i];
-    rows.push_back(row);
-  }
-  return rows;
-}
-
 struct Scene {
   test::TempDir dir;
   fs::path config;
@@ -114,7 +92,7 @@ TEST(RunDriver, TinySceneEndToEnd) {
   EXPECT_TRUE(fs::exists(res.output / "fine.vti"));
   EXPECT_NE(test::read_text(res.output / "coarse.vti").find("voidfraction_pmm_27"), std::string::npos);
 
-  const auto rows = read_csv(csv);
+  const auto rows = test::read_csv(csv);
   ASSERT_EQ(rows.size(), 8u);
   int exact_rows = 0;
   for (const auto& row : rows) {
@@ -230,7 +208,7 @@ output: out
   const double vp = 4.0 / 3.0 * 3.14159265358979 * 0.0007 * 0.0007 * 0.0007;
   const double excess = vp - 1e-9;
   std::map<std::string, std::map<std::string, std::string>> by_method;
-  for (const auto& row : read_csv(res.output / "results.csv")) by_method[row.at("method")] = row;
+  for (const auto& row : test::read_csv(res.output / "results.csv")) by_method[row.at("method")] = row;
   ASSERT_EQ(by_method.size(), 2u);
   EXPECT_EQ(by_method["direct"].at("overfull_cells"), "1");
   EXPECT_NEAR(std::stod(by_method["direct"].at("overfull_volume")), excess, 1e-12 * excess);

@@ -7,8 +7,11 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <map>
+#include <sstream>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace vfe::apps::test {
 
@@ -52,6 +55,74 @@ inline void write_gzip(const std::filesystem::path& file, const std::string& tex
 inline std::string read_text(const std::filesystem::path& file) {
   std::ifstream in(file, std::ios::binary);
   return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+/// One CSV line's fields; quoted fields (notes may hold commas) are kept whole.
+inline std::vector<std::string> split_csv_line(const std::string& s) {
+  std::vector<std::string> v;
+  std::string cell;
+  bool quoted = false;
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    const char c = s[i];
+    if (quoted) {
+      if (c == '"' && i + 1 < s.size() && s[i + 1] == '"') {
+        cell += '"';
+        ++i;
+      } else if (c == '"') {
+        quoted = false;
+      } else {
+        cell += c;
+      }
+    } else if (c == '"') {
+      quoted = true;
+    } else if (c == ',') {
+      v.push_back(cell);
+      cell.clear();
+    } else {
+      cell += c;
+    }
+  }
+  v.push_back(cell);
+  return v;
+}
+
+/// The rows of a CSV file with a header line, each as a map from column name to text.
+inline std::vector<std::map<std::string, std::string>> read_csv(const std::filesystem::path& file) {
+  std::istringstream in(read_text(file));
+  std::string line;
+  std::vector<std::string> head;
+  std::vector<std::map<std::string, std::string>> rows;
+  if (std::getline(in, line)) head = split_csv_line(line);
+  while (std::getline(in, line)) {
+    const auto v = split_csv_line(line);
+    std::map<std::string, std::string> row;
+    for (std::size_t i = 0; i < head.size() && i < v.size(); ++i) row[head[i]] = v[i];
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+/// The internalField of an OpenFOAM volVectorField as vfe writes it (nonuniform
+/// List<vector>): 3 values per cell. Throws std::runtime_error when it is not one.
+inline std::vector<double> read_foam_vectors(const std::filesystem::path& file) {
+  const std::string text = read_text(file);
+  const std::string kind = "nonuniform List<vector>";
+  const auto list = text.find(kind);
+  if (list == std::string::npos) throw std::runtime_error(file.string() + ": no nonuniform List<vector>");
+  std::istringstream vs(text.substr(list + kind.size()));
+  std::size_t count = 0;
+  std::string tok;
+  vs >> count >> tok;
+  if (tok != "(") throw std::runtime_error(file.string() + ": no '(' after the count");
+  std::vector<double> values;
+  for (std::size_t c = 0; c < count; ++c) {
+    char open = 0, close = 0;
+    double u[3];
+    vs >> open >> u[0] >> u[1] >> u[2] >> close;
+    if (!vs || open != '(' || close != ')') throw std::runtime_error(file.string() + ": vector " + std::to_string(c) + " is not (x y z)");
+    values.insert(values.end(), u, u + 3);
+  }
+  return values;
 }
 
 }  // namespace vfe::apps::test

@@ -61,7 +61,8 @@ int main(void) {
   for (i = 0; i < 12; ++i) offsets[i] = 4 * i;
 
   CHECK(strcmp(vfe_method_name(0), "direct") == 0, "first method: %s", vfe_method_name(0));
-  CHECK(vfe_method_name(8) == NULL && vfe_method_name(-1) == NULL, "past the last method");
+  CHECK(strcmp(vfe_method_name(8), "auto") == 0, "last method: %s", vfe_method_name(8));
+  CHECK(vfe_method_name(9) == NULL && vfe_method_name(-1) == NULL, "past the last method");
 
   CHECK(vfe_create_polymesh_arrays(12, points, 11, offsets, faces, owner, 1, neighbour, NULL) ==
             VFE_ERROR_INVALID_ARGUMENT, "NULL out");

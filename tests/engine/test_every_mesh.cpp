@@ -41,6 +41,9 @@ TEST(EveryMesh, UniformRectilinearGridEqualsCartesianForEveryMethod) {
   const Particles p = random_spheres(7, 300, -0.5e-3, 10.5e-3, 0.2e-3, 1.3e-3);
   for (const char* periodic : {"none", "xz"}) {
     for (const std::string_view m : method_names()) {
+      // auto weighs each path by the cost of its mesh kind: the grids may send a sphere
+      // different ways (tests/engine/test_hybrid.cpp checks each path's result).
+      if (m == "auto") continue;
       SCOPED_TRACE(std::string(m) + " periodic=" + periodic);
       const std::string opts = "method=" + std::string(m) + " periodic=" + periodic + " particle_grid=60";
       const std::vector<double> a = run(cart, p, opts), b = run(rect, p, opts);

@@ -57,6 +57,19 @@ const char* kCubeObj =
 
 }  // namespace
 
+// shape_reach bounds how far a shape reaches from its origin in any rotation: the sphere's
+// radius, else the farthest corner of the bounding box (analytic here).
+TEST(EngineShapes, ShapeReachIsTheFarthestBoundingBoxCorner) {
+  vfe::Engine e(grid(1.0, 4));
+  EXPECT_EQ(e.shape_reach(e.add_shape("sphere")), 1.0);
+  EXPECT_NEAR(e.shape_reach(e.add_shape("ellipsoid 4 0.7 0.6")), std::sqrt(16 + 0.49 + 0.36), 1e-12);
+  // Spheres at (0,0,0) r 0.4 and (0.4,0,0) r 0.3: x in [-0.4, 0.7], y and z in [-0.4, 0.4].
+  EXPECT_NEAR(e.shape_reach(e.add_shape("clump 0 0 0 0.4; 0.4 0 0 0.3")), std::sqrt(0.49 + 0.16 + 0.16), 1e-12);
+  EXPECT_NEAR(e.shape_reach(e.add_shape("mesh " + temp_file("cube_reach.obj", kCubeObj).string())), std::sqrt(3.0),
+              1e-12);
+  EXPECT_THROW(e.shape_reach(99), vfe::Error);
+}
+
 TEST(EngineShapes, EveryShapeConservesVolumeWithPmmAndDirect) {
   vfe::Engine e(grid(1.0, 4));
   const std::int32_t sphere = e.add_shape("sphere");

@@ -343,22 +343,59 @@ TEST(DistributedCartesian, EngineOfOneMeshIsNotDistributed) {
   vfe_destroy(serial);
 }
 
-// Shapes are not distributed: vfe_add_shape and shape ids answer VFE_ERROR_UNSUPPORTED on
-// every rank, and spheres still compute.
-TEST(DistributedCartesian, ShapesAreRefused) {
+// Shapes on a distributed engine: vfe_add_shape on every rank, pmm and direct on ellipsoids and
+// clumps larger than the cells (ghost layer from the shapes' reach) equal the serial engine's.
+// A spec refused on one rank only registers the shape on no rank, so ids stay equal.
+TEST(DistributedCartesian, ShapesEqualSerialEngine) {
   const Grid g;
-  int64_t lo[3], hi[3];
-  split(g, {g_size, 1, 1}, g_rank, lo, hi);
-  vfe_engine* e = create(g, lo, hi);
-  int32_t shape = -1;
-  EXPECT_EQ(vfe_add_shape(e, "ellipsoid 1 0.5 0.5", &shape), VFE_ERROR_UNSUPPORTED);
-  EXPECT_EQ(shape, -1);
-  EXPECT_NE(std::strstr(vfe_last_error(e), "spheres only"), nullptr) << vfe_last_error(e);
-  std::vector<double> owned(size_t(vfe_cell_count(e)));
-  const int32_t zero = 0;
-  EXPECT_EQ(vfe_compute_shapes(e, 0, nullptr, nullptr, nullptr, &zero, owned.data()), VFE_ERROR_UNSUPPORTED);
-  EXPECT_EQ(vfe_compute(e, 0, nullptr, nullptr, nullptr, owned.data()), VFE_OK) << vfe_last_error(e);
-  vfe_destroy(e);
+  const Scene scene = scenes(g)[2];  // 12 particles of scale 1.2 to 1.9 mm: wider than the cells
+  const char* const specs[] = {"ellipsoid 1.2 0.6 0.5", "clump 0 0 0 0.7; 0.6 0.2 0 0.5"};
+  std::vector<int32_t> shape_ids(scene.size());
+  for (std::size_t i = 0; i < scene.size(); ++i) shape_ids[i] = int32_t(i % 2);
+  // pmm with particle_grid=auto sizes a shape's template per compute (per rank): refused.
+  for (const char* method : {"pmm particle_grid=2000", "direct"}) {
+    const std::string options = std::string("method=") + method + " periodic=x threads=1";
+    std::vector<double> serial(size_t(g.cells[0] * g.cells[1] * g.cells[2]));
+    {
+      vfe_engine* s = nullptr;
+      ASSERT_EQ(vfe_create_cartesian(g.origin.data(), g.spacing.data(), g.cells.data(), &s), VFE_OK);
+      ASSERT_EQ(vfe_configure(s, options.c_str()), VFE_OK);
+      int32_t id = -1;
+      for (const char* spec : specs) ASSERT_EQ(vfe_add_shape(s, spec, &id), VFE_OK) << vfe_last_error(s);
+      vfe_particles p = view(scene.centres.data(), scene.radii.data(), scene.ids.data(), int64_t(scene.size()));
+      p.shape_ids = shape_ids.data();
+      ASSERT_EQ(vfe_compute_particles(s, &p, serial.data()), VFE_OK) << vfe_last_error(s);
+      vfe_destroy(s);
+    }
+    {  // one decomposition: the shapes' templates are costly to build on every engine
+      const std::array<int, 3> parts = decompositions().back();
+      int64_t lo[3], hi[3];
+      split(g, parts, g_rank, lo, hi);
+      vfe_engine* e = create(g, lo, hi);
+      ASSERT_EQ(vfe_configure(e, options.c_str()), VFE_OK) << vfe_last_error(e);
+      int32_t id = -1;
+      // The last rank's spec is bad: every rank fails, none registers it.
+      EXPECT_EQ(vfe_add_shape(e, g_rank == g_size - 1 ? "ellipsoid 1 1 -1" : specs[0], &id), VFE_ERROR_INVALID_ARGUMENT);
+      EXPECT_EQ(id, -1);
+      for (int32_t k = 0; k < 2; ++k) {
+        ASSERT_EQ(vfe_add_shape(e, specs[k], &id), VFE_OK) << vfe_last_error(e);
+        EXPECT_EQ(id, k);
+      }
+      Local l = owned_particles(scene, g, lo, hi);
+      std::vector<int32_t> my_shapes;
+      for (const std::size_t i : l.index) my_shapes.push_back(shape_ids[i]);
+      vfe_particles p = view(l.centres.data(), l.radii.data(), l.ids.data(), int64_t(l.radii.size()));
+      p.shape_ids = my_shapes.data();
+      std::vector<double> owned(size_t(vfe_cell_count(e)));
+      ASSERT_EQ(vfe_compute_particles(e, &p, owned.data()), VFE_OK) << vfe_last_error(e);
+      EXPECT_LE(compare(g, owned, serial, lo, hi).max_diff, 1e-12 * scene.largest_volume())
+          << method << ", blocks " << describe(parts);
+      vfe_report r{};
+      ASSERT_EQ(vfe_last_report(e, &r), VFE_OK);
+      EXPECT_EQ(r.particles, int64_t(scene.size()));
+      vfe_destroy(e);
+    }
+  }
 }
 
 TEST(DistributedCartesian, RandomOrientationWithoutIdsIsRefused) {

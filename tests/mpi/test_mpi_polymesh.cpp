@@ -172,6 +172,48 @@ TEST(DistributedPolyMesh, EqualsSerialEngineForEveryMethod) {
   }
 }
 
+// Long ellipsoids across the processor boundaries (pmm and direct): the ghost layer from the
+// shape's reach (4 x the scale), fields equal to the serial engine's on the undecomposed mesh;
+// pmm's particle_grid=auto, which sizes a shape's template per compute, is refused.
+TEST(DistributedPolyMesh, ShapesEqualSerialEngine) {
+  const Mesh& mesh = kMeshes[0];
+  vfe::Engine serial(vfe::PolyMeshSpec{undecomposed(mesh)});
+  const std::vector<int64_t> cell_ids = my_cell_ids(mesh);
+  const char* const spec = "ellipsoid 4 0.7 0.6";
+  ASSERT_EQ(serial.add_shape(spec), 0);
+  vfe_engine* e = nullptr;
+  ASSERT_EQ(vfe_mpi_create_polymesh(MPI_COMM_WORLD, my_folder(mesh).c_str(), &e), VFE_OK) << vfe_last_error(nullptr);
+  int32_t id = -1;
+  ASSERT_EQ(vfe_add_shape(e, spec, &id), VFE_OK) << vfe_last_error(e);
+  ASSERT_EQ(id, 0);
+  const Scene scene = scenes(mesh, serial)[1];
+  const Local l = my_particles(scene, serial, cell_ids);
+  const std::vector<int32_t> all_shapes(scene.size(), 0), my_shapes(l.radii.size(), 0);
+  // pmm with particle_grid=auto sizes a shape's template per compute (per rank): refused.
+  for (const char* method : {"pmm particle_grid=2000", "direct"}) {
+    // outside=drop: no widening for the nearest cells, so the shape's reach alone sizes the layer.
+    const std::string options = std::string("method=") + method + " outside=drop";
+    serial.configure(options);
+    std::vector<double> expected(static_cast<std::size_t>(serial.cell_count()));
+    vfe_particles all = view(scene.centres.data(), scene.radii.data(), scene.ids.data(), int64_t(scene.size()));
+    all.shape_ids = all_shapes.data();
+    serial.compute(all, expected);
+    ASSERT_EQ(vfe_configure(e, options.c_str()), VFE_OK) << vfe_last_error(e);
+    vfe_particles p = view(l.centres.data(), l.radii.data(), l.ids.data(), int64_t(l.radii.size()));
+    p.shape_ids = my_shapes.data();
+    std::vector<double> field(cell_ids.size(), -1.0);
+    ASSERT_EQ(vfe_compute_particles(e, &p, field.data()), VFE_OK) << vfe_last_error(e);
+    EXPECT_LE(max_difference(field, cell_ids, expected), 1e-12 * scene.largest_volume()) << method;
+  }
+  ASSERT_EQ(vfe_configure(e, "method=pmm particle_grid=auto"), VFE_OK);
+  vfe_particles p = view(l.centres.data(), l.radii.data(), l.ids.data(), int64_t(l.radii.size()));
+  p.shape_ids = my_shapes.data();
+  std::vector<double> field(cell_ids.size(), -1.0);
+  EXPECT_EQ(vfe_compute_particles(e, &p, field.data()), VFE_ERROR_UNSUPPORTED);
+  EXPECT_NE(std::string(vfe_last_error(e)).find("particle_grid=N"), std::string::npos) << vfe_last_error(e);
+  vfe_destroy(e);
+}
+
 TEST(DistributedPolyMesh, GhostLayerWidensForLargerParticles) {
   for (const Mesh& mesh : kMeshes) {
     vfe::Engine serial(vfe::PolyMeshSpec{undecomposed(mesh)});

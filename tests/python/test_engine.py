@@ -9,7 +9,7 @@ import pytest
 import vfe
 from conftest import DATA, ball_volume, random_spheres
 
-METHODS = ["direct", "pmm", "exact", "divided", "gaussian", "porous_cube", "big_particle", "trilinear"]
+METHODS = ["direct", "pmm", "exact", "divided", "gaussian", "porous_cube", "big_particle", "trilinear", "auto"]
 
 
 def test_method_names_are_the_engines():

@@ -208,6 +208,10 @@ class VFE_API Engine {
   std::int32_t add_shape(std::string_view spec);
   /// Volume of a registered shape in its template units (scale 1).
   double shape_volume(std::int32_t id) const;
+  /// How far a registered shape reaches from its origin (the particle's position) at scale 1
+  /// in any rotation, in its template units: 1 for the sphere, else the distance to the
+  /// farthest corner of its bounding box (a bound).
+  double shape_reach(std::int32_t id) const;
 
  private:
   struct Impl;

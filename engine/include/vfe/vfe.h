@@ -177,8 +177,10 @@ VFE_API vfe_status vfe_last_report(const vfe_engine* e, vfe_report* out);
  *  of at most 2 x 2 x 2 cells instead of located one by one; the cells are the same),
  *  "fused_pass" (1 when validation and deposits ran as one pass over the particles),
  *  "lattice_cells" (the cells of a polyMesh whose cells are a lattice of axis-aligned boxes,
- *  0 for other meshes) and "lattice_particles" (particles that took that lattice's grid
- *  path, option lattice=1). Unknown keys
+ *  0 for other meshes), "lattice_particles" (particles that took that lattice's grid
+ *  path, option lattice=1) and, for method=auto, "auto_fast", "auto_pmm" and "auto_exact"
+ *  (spheres computed on the fast path, by pmm and by the exact overlap; shapes count as
+ *  pmm; 0 for other methods). Unknown keys
  *  give VFE_ERROR_INVALID_ARGUMENT. New facts get new keys, so vfe_report never changes. */
 VFE_API vfe_status vfe_last_report_value(const vfe_engine* e, const char* key, double* out);
 

@@ -50,6 +50,7 @@ struct Scratch {
   std::int64_t fast_path = 0, sub_elements = 0, outside_particles = 0;
   std::int64_t counted = 0;  ///< pmm: particles whose sub-elements were counted per octant
   std::int64_t lattice_particles = 0;  // polyMesh of box cells: particles the grid's driver took
+  std::int64_t auto_fast = 0, auto_pmm = 0, auto_exact = 0;  // method=auto: particles per path
   std::int64_t first_error = std::numeric_limits<std::int64_t>::max();
   std::int64_t grid_min = std::numeric_limits<std::int64_t>::max(), grid_max = 0;
 
@@ -109,6 +110,7 @@ struct Scratch {
 
   void reset_counters() {
     fast_path = sub_elements = outside_particles = lattice_particles = grid_max = counted = 0;
+    auto_fast = auto_pmm = auto_exact = 0;
     first_error = grid_min = std::numeric_limits<std::int64_t>::max();
   }
 

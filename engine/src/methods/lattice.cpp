@@ -52,6 +52,9 @@ LatticeBoundary lattice_boundary(Method m, const BoxLattice& lattice) {
     // nearest to the centre: so does the Cartesian grid's exact, while the separable
     // kernels give each cell beyond a side to the cell along it.
     case Method::exact: return lattice.cartesian ? LatticeBoundary::grid : LatticeBoundary::rest;
+    // auto takes pmm or exact per particle: the rule both share on evenly spaced nodes, the
+    // polyMesh's driver (which chooses as well) on graded ones.
+    case Method::automatic: return lattice.cartesian ? LatticeBoundary::grid : LatticeBoundary::polymesh;
     case Method::gaussian:
     case Method::porous_cube: return LatticeBoundary::rest;
     // big_particle shares among the centres of real cells only.

@@ -103,20 +103,9 @@ void emit_window(const RectilinearContext& ctx, Scratch& s, const Particle& p, c
       }
 }
 
-/// The one cell wholly holding the box c +- half, or -1 (always -1 with fast_path=0).
-std::int64_t one_cell(const RectilinearContext& ctx, const Eigen::Vector3d& c, const Eigen::Vector3d& half) {
-  if (!ctx.opts.fast_path) return -1;
-  std::int64_t idx[3];
-  for (int d = 0; d < 3; ++d) {
-    const std::int64_t lo = ctx.grid.axis_index(d, c[d] - half[d]);
-    if (lo != ctx.grid.axis_index(d, c[d] + half[d]) || lo < 0 || lo >= ctx.grid.cells()[d]) return -1;
-    idx[d] = lo;
-  }
-  return ctx.grid.index(idx[0], idx[1], idx[2]);
-}
 
 bool take_fast_path(const RectilinearContext& ctx, Scratch& s, const Particle& p, const Eigen::Vector3d& half) {
-  const std::int64_t cell = one_cell(ctx, p.centre, half);
+  const std::int64_t cell = rectilinear_one_cell(ctx, p.centre, half);
   if (cell < 0) return false;
   ++s.fast_path;
   s.add(cell, p.volume);
@@ -193,6 +182,17 @@ double cell_centre_axis(const RectilinearContext& ctx, int d, std::int64_t g) {
 }
 
 }  // namespace
+
+std::int64_t rectilinear_one_cell(const RectilinearContext& ctx, const Eigen::Vector3d& c, const Eigen::Vector3d& half) {
+  if (!ctx.opts.fast_path) return -1;
+  std::int64_t idx[3];
+  for (int d = 0; d < 3; ++d) {
+    const std::int64_t lo = ctx.grid.axis_index(d, c[d] - half[d]);
+    if (lo != ctx.grid.axis_index(d, c[d] + half[d]) || lo < 0 || lo >= ctx.grid.cells()[d]) return -1;
+    idx[d] = lo;
+  }
+  return ctx.grid.index(idx[0], idx[1], idx[2]);
+}
 
 double periodic_node(const RectilinearGrid& grid, int d, std::int64_t g) {
   const std::int64_t n = grid.cells()[d];

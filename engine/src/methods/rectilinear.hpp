@@ -22,6 +22,9 @@ void rectilinear_porous_cube(const RectilinearContext& ctx, Scratch& s, const Pa
 void rectilinear_big_particle(const RectilinearContext& ctx, Scratch& s, const Particle& p);
 void rectilinear_trilinear(const RectilinearContext& ctx, Scratch& s, const Particle& p);
 
+/// The one cell wholly holding the box c +- half, or -1 (always -1 with fast_path=0).
+std::int64_t rectilinear_one_cell(const RectilinearContext& ctx, const Eigen::Vector3d& c, const Eigen::Vector3d& half);
+
 /// Node g of axis d, continued periodically past the ends (g may be < 0 or > n).
 double periodic_node(const RectilinearGrid& grid, int d, std::int64_t g);
 

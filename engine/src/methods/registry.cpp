@@ -1,5 +1,6 @@
 #include "methods/registry.hpp"
 
+#include "methods/hybrid.hpp"
 #include "methods/shape_exact.hpp"
 
 namespace vfe::detail {
@@ -21,6 +22,8 @@ const MethodDrivers kMethods[] = {
     {Method::trilinear, trilinear_particle, rectilinear_trilinear, nullptr, false,
      "trilinear (cloud-in-cell) needs a structured grid's stencil of 8 cell centres; on a polyhedral mesh use "
      "pmm, exact, divided or big_particle"},
+    // Per sphere the cheaper of pmm and exact; shapes take pmm.
+    {Method::automatic, auto_particle, rectilinear_auto, polymesh_auto, true, ""},
 };
 
 }  // namespace

@@ -39,9 +39,12 @@
  * (a polyMesh refuses it, as the serial engine does) and answers VFE_ERROR_UNSUPPORTED for
  * smoothing_length > 0 (a diffusion over the whole mesh); vfe_deposit and vfe_interpolate
  * sum and fetch across ranks (values are this rank's particles of the last compute,
- * cell_field and out its owned cells); spheres only: vfe_add_shape and shape ids answer
- * VFE_ERROR_UNSUPPORTED. The ghost layer is widened (on every rank) when a particle's
- * footprint needs it.
+ * cell_field and out its owned cells); vfe_add_shape registers the shape on every rank
+ * (a spec refused on one rank registers it on none, so ids agree), and a shaped particle's
+ * ghost reach is its scale times the shape's farthest bounding-box corner; method=pmm on
+ * shapes needs particle_grid=N (auto sizes a shape's template from the largest particle of
+ * the compute, which differs per rank: VFE_ERROR_UNSUPPORTED). The ghost layer is widened
+ * (on every rank) when a particle's footprint needs it.
  *
  * Particle contract: a particle is given on exactly one rank, the one whose block holds
  * the cell floor((centre - origin) / spacing) of its centre, after wrapping periodic axes

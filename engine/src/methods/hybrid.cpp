@@ -1,0 +1,186 @@
+// method=auto (methods/hybrid.hpp): per sphere the fast path when the ball lies in one
+// cell, else pmm at the size particle_grid gives it or the exact overlap, whichever the
+// cost model of the mesh kind finds cheaper.
+#include "methods/hybrid.hpp"
+
+#include <algorithm>
+
+namespace vfe::detail {
+
+namespace {
+
+// Measured with `build/release/vfe_bench_auto_costs` (one thread, Release build;
+// docs/performance.md, "method=auto"): whole computes of pmm and exact on groups of random
+// spheres per mesh kind, each path's time per sphere fitted to its mean work by least
+// squares, every constant >= 0 (a work measure that others explain gets 0).
+constexpr GridCosts kCartesian{55, 3.8, 0.33, 116, 37};
+constexpr GridCosts kRectilinear{171, 21, 21, 115, 49};
+constexpr PolyCosts kPolyhedral{0, 62, 412, 0, 0, 0, 242};
+
+/// Cells from lo to hi along an axis of n cells, clamped to the mesh unless it wraps (exact's box of cells).
+std::int64_t cells_of_box(std::int64_t lo, std::int64_t hi, std::int64_t n, bool periodic) {
+  if (!periodic) {
+    lo = std::max<std::int64_t>(lo, 0);
+    hi = std::min<std::int64_t>(hi, n - 1);
+  }
+  return std::max<std::int64_t>(hi - lo + 1, 0);
+}
+
+}  // namespace
+
+const GridCosts& cartesian_costs() { return kCartesian; }
+const GridCosts& rectilinear_costs() { return kRectilinear; }
+const PolyCosts& polyhedral_costs() { return kPolyhedral; }
+
+PathCosts path_costs(const Context& ctx, Scratch& /*unused on a grid*/, const Particle& p) {
+  PathCosts k;
+  const CartesianGrid& grid = ctx.grid;
+  const Eigen::Vector3d& c = p.centre;
+  const double r = p.radius;
+  k.fast_cell = single_cell(ctx, c, Eigen::Vector3d::Constant(r));
+  if ((k.fast = k.fast_cell >= 0)) return k;
+  const GridCosts& m = cartesian_costs();
+  const kernels::ParticleTemplate& t = ctx.template_for(p);
+  k.pmm_template = &t;
+  const Window w = make_window(grid, c, Eigen::Vector3d::Constant(r * t.reach));
+  bool in_mesh = true, small = true;
+  for (int d = 0; d < 3; ++d) {
+    small &= w.m[d] <= 2;
+    in_mesh &= grid.cell_axis(d, w.lo[d]) >= 0 && grid.cell_axis(d, w.lo[d] + w.m[d] - 1) >= 0;
+  }
+  if (w.size() == 1 && in_mesh && ctx.opts.fast_path) {
+    k.pmm = 0;  // pmm's own fast path: its template lies in one cell
+  } else {
+    k.pmm_points = static_cast<std::int64_t>(t.size());
+    k.counted = small && in_mesh && ctx.opts.fast_path && !t.split_points.empty();
+    k.pmm = m.pmm_particle + double(k.pmm_points) * (k.counted ? m.pmm_counted : m.pmm_point);
+  }
+  double cells = 1;
+  for (int d = 0; d < 3; ++d)
+    cells *= double(cells_of_box(grid.axis_index(d, c[d] - r), grid.axis_index(d, c[d] + r), grid.cells()[d],
+                                 grid.periodic(d)));
+  k.exact_cells = static_cast<std::int64_t>(std::min(cells, 1e18));
+  k.exact = m.exact_particle + cells * m.exact_cell;
+  return k;
+}
+
+PathCosts path_costs(const RectilinearContext& ctx, Scratch& /*unused on a grid*/, const Particle& p) {
+  PathCosts k;
+  const RectilinearGrid& grid = ctx.grid;
+  const Eigen::Vector3d& c = p.centre;
+  const double r = p.radius;
+  k.fast_cell = rectilinear_one_cell(ctx, c, Eigen::Vector3d::Constant(r));
+  if ((k.fast = k.fast_cell >= 0)) return k;
+  const GridCosts& m = rectilinear_costs();
+  const kernels::ParticleTemplate& t = ctx.bank.template_for(2 * r, grid.cell_volume(grid.nearest(c)));
+  k.pmm_template = &t;
+  if (rectilinear_one_cell(ctx, c, Eigen::Vector3d::Constant(r * t.reach)) >= 0) {
+    k.pmm = 0;
+  } else {
+    k.pmm_points = static_cast<std::int64_t>(t.size());
+    k.pmm = m.pmm_particle + double(k.pmm_points) * m.pmm_point;
+  }
+  double cells = 1;
+  for (int d = 0; d < 3; ++d) {
+    const bool wraps = (ctx.opts.periodic >> d) & 1u;
+    const auto index = [&](double x) { return wraps ? periodic_axis_index(grid, d, x) : grid.axis_index(d, x); };
+    cells *= double(cells_of_box(index(c[d] - r), index(c[d] + r), grid.cells()[d], wraps));
+  }
+  k.exact_cells = static_cast<std::int64_t>(std::min(cells, 1e18));
+  k.exact = m.exact_particle + cells * m.exact_cell;
+  return k;
+}
+
+PathCosts path_costs(const PolyContext& ctx, Scratch& s, const Particle& p, bool full) {
+  PathCosts k;
+  const PolyMesh& mesh = ctx.locator->mesh();
+  const Eigen::Vector3d& c = p.centre;
+  const double r = p.radius, r2 = r * r;
+  const std::int64_t centre_cell = ctx.locator->locate(c);
+  if (ctx.opts.fast_path && centre_cell >= 0 && ball_inside_cell(mesh, centre_cell, c, r)) {
+    k.fast = true;
+    k.fast_cell = centre_cell;
+    return k;
+  }
+  const PolyCosts& m = polyhedral_costs();
+  const std::int64_t cell = centre_cell >= 0 ? centre_cell : ctx.locator->nearest_cell(c);
+  const kernels::ParticleTemplate& t = ctx.bank.template_for(2 * r, mesh.cell_volume(cell));
+  k.pmm_template = &t;
+  const Eigen::Vector3d half = Eigen::Vector3d::Constant(r);
+  ctx.locator->hash().cells_in_box(Eigen::AlignedBox3d(c - half, c + half), s.candidate_cells);
+  const double candidates = double(s.candidate_cells.size());
+  k.exact_cells = static_cast<std::int64_t>(s.candidate_cells.size());
+  k.pmm_points = static_cast<std::int64_t>(t.size());
+  k.pmm = m.pmm_particle + double(k.pmm_points) * m.pmm_point + candidates * m.pmm_candidate;
+  k.exact = m.exact_particle + candidates * m.exact_candidate;
+  // polymesh_exact's work per candidate: nothing beyond the ball's reach or inside it, the
+  // closed form on a box, the polyhedron overlap (about linear in its face points) otherwise.
+  for (const std::int64_t cand : s.candidate_cells) {
+    if (!full && k.exact > k.pmm) break;
+    const Eigen::AlignedBox3d& box = mesh.cell_bounds(cand);
+    if (box.squaredExteriorDistance(c) >= r2) continue;
+    if ((box.min() - c).cwiseAbs().cwiseMax((box.max() - c).cwiseAbs()).squaredNorm() <= r2) continue;
+    Eigen::AlignedBox3d cell_box;
+    if (cached_cell_is_box(mesh, s, cand, cell_box)) {
+      ++k.box_cells;
+      k.exact += m.exact_box_cell;
+      continue;
+    }
+    std::int64_t points = 0;
+    for (const std::int64_t f : mesh.cell_faces(cand)) points += static_cast<std::int64_t>(mesh.face(f).size());
+    k.face_points += points;
+    k.exact += double(points) * m.exact_face_point;
+  }
+  return k;
+}
+
+namespace {
+
+/// The path the costs choose for sphere p, counted; ties go to exact (the more accurate).
+/// A non-spherical particle takes pmm.
+template <class MeshContext>
+void take_cheapest(const MeshContext& ctx, Scratch& s, const Particle& p,
+                   void (*pmm)(const MeshContext&, Scratch&, const Particle&),
+                   void (*exact)(const MeshContext&, Scratch&, const Particle&)) {
+  if (p.shaped) {
+    ++s.auto_pmm;
+    pmm(ctx, s, p);
+    return;
+  }
+  const PathCosts k = path_costs(ctx, s, p);
+  if (k.fast) {  // exact's (and pmm's) fast path: the whole volume to the one cell
+    ++s.auto_fast;
+    ++s.fast_path;
+    s.add(k.fast_cell, p.volume);
+  } else if (k.pmm < k.exact) {
+    ++s.auto_pmm;
+    Particle q = p;
+    q.shape_template = k.pmm_template;  // the same template the bank gives it, not looked up again
+    pmm(ctx, s, q);
+  } else {
+    ++s.auto_exact;
+    exact(ctx, s, p);
+  }
+}
+
+}  // namespace
+
+void grid_pmm(const Context& ctx, Scratch& s, const Particle& p) {
+  if (!p.shaped && pmm_sphere_quick(ctx, s, p, [&](std::int64_t cell, double v) { s.deposits.push_back({cell, v}); }))
+    return;
+  pmm_particle(ctx, s, p);
+}
+
+void auto_particle(const Context& ctx, Scratch& s, const Particle& p) {
+  if (!p.shaped && auto_sphere_quick(ctx, s, p, [&](std::int64_t cell, double v) { s.deposits.push_back({cell, v}); }))
+    return;
+  take_cheapest(ctx, s, p, grid_pmm, exact_particle);
+}
+void rectilinear_auto(const RectilinearContext& ctx, Scratch& s, const Particle& p) {
+  take_cheapest(ctx, s, p, rectilinear_pmm, rectilinear_exact);
+}
+void polymesh_auto(const PolyContext& ctx, Scratch& s, const Particle& p) {
+  take_cheapest(ctx, s, p, polymesh_pmm, polymesh_exact);
+}
+
+}  // namespace vfe::detail
