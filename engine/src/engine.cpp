@@ -129,7 +129,7 @@ struct Engine::Impl {
   const ParticleTemplate divided = kernels::make_divided_template();
   Report report{};
   bool have_field = false;
-  double deterministic_volume_bound = 0;  ///< of set_deterministic_radius's sphere
+  double deterministic_volume_bound = 0;  ///< set_deterministic_volume
   // smoothing_length > 0: the smoothed field (what the host sees) and the mesh's face graph.
   std::vector<double> smoothed;
   std::unique_ptr<detail::FaceGraph> faces;
@@ -1282,8 +1282,20 @@ void Engine::deposit_fixed(std::int32_t components, std::span<const double> valu
   }, values);
 }
 
-void Engine::set_deterministic_radius(double largest_sphere_radius) {
-  impl_->deterministic_volume_bound = largest_sphere_radius > 0 ? sphere_volume(largest_sphere_radius) : 0;
+void Engine::set_deterministic_volume(double largest_particle_volume) {
+  impl_->deterministic_volume_bound = largest_particle_volume > 0 ? largest_particle_volume : 0;
+}
+
+double Engine::largest_particle_volume(const vfe_particles& particles) const {
+  const ParticleArrays pa = arrays_of(particles);
+  const auto nshapes = static_cast<std::int32_t>(impl_->shapes.size());
+  double largest = 0;
+  for (std::int64_t p = 0; p < pa.n; ++p) {
+    if (pa.shape_ids && (pa.shape_id(p) < 0 || pa.shape_id(p) >= nshapes)) continue;
+    const double v = impl_->particle_volume(pa, p);
+    if (v < 1e300) largest = std::max(largest, v);  // as validation: NaN and overflow are refused there
+  }
+  return largest;
 }
 
 Engine::FixedField Engine::fixed_solid() const {

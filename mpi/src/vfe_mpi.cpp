@@ -564,7 +564,7 @@ double place_outside_centres(const DistributedEngine& e, const vfe_particles& p,
 void DistributedEngine::compute(const vfe_particles& p, std::span<double> out) {
   std::vector<double> wrapped;
   std::vector<std::int64_t> unlocated;  // a polyMesh's particles whose centres lie in no cell held here
-  double maxima[3] = {0, 0, 0};  // largest sphere radius, shape reach, unlocated centres
+  double maxima[4] = {0, 0, 0, 0};  // largest sphere radius, shape reach, unlocated centres, particle volume
   collective(
       *this,
       [&] {
@@ -589,6 +589,7 @@ void DistributedEngine::compute(const vfe_particles& p, std::span<double> out) {
         const std::array<double, 2> largest = largest_reach(*this, p);
         maxima[0] = largest[0];
         maxima[1] = largest[1];
+        if (local->option("deterministic") == "1") maxima[3] = local->largest_particle_volume(p);
       },
       maxima);
   const double max_radius = maxima[0], max_shape = maxima[1];
@@ -617,7 +618,7 @@ void DistributedEngine::compute(const vfe_particles& p, std::span<double> out) {
           mine.centres_stride = 0;
         }
         const double wall0 = MPI_Wtime(), cpu0 = thread_cpu_seconds();
-        local->set_deterministic_radius(max_radius);  // deterministic=1: one fixed-point unit on every rank
+        local->set_deterministic_volume(maxima[3]);  // deterministic=1: one fixed-point unit on every rank
         local->compute(mine, extended);
         local_cpu_seconds = thread_cpu_seconds() - cpu0;
         local_seconds = MPI_Wtime() - wall0;

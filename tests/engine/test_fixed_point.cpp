@@ -114,13 +114,17 @@ TEST(FixedPoint, TwoHalvesComputedApartAddToTheWhole) {
   std::vector<std::size_t> first(half), second(t.p.radii.size() - half);
   std::iota(first.begin(), first.end(), 0);
   std::iota(second.begin(), second.end(), half);
-  const double largest = *std::max_element(s.p.radii.begin(), s.p.radii.end());
+  vfe_particles all{};
+  all.n = static_cast<std::int64_t>(s.p.radii.size());
+  all.centres = s.p.centres.data();
+  all.radii = s.p.radii.data();
+  const double largest = Engine(s.g).largest_particle_volume(all);
   for (const char* method : {"pmm", "exact", "gaussian"}) {
     SCOPED_TRACE(method);
     Engine whole(s.g), a(s.g), b(s.g);
     for (Engine* e : {&whole, &a, &b}) {
       e->configure(std::string("deterministic=1 outside=nearest method=") + method);
-      e->set_deterministic_radius(largest);
+      e->set_deterministic_volume(largest);
     }
     const std::vector<double> field = compute(whole, s);
     compute(a, permuted(t, first));

@@ -179,9 +179,12 @@ class VFE_API Engine {
   void deposit_fixed(std::int32_t components, std::span<const double> values, std::span<const int> exponents,
                      std::span<FixedSum> out) const;
   /// deterministic=1 takes its unit from the largest particle volume of a compute; with a
-  /// radius set here, from at least a sphere of that radius (0: none). Every rank of a
-  /// distributed mesh sets the largest radius of all ranks, so all sum in the same unit.
-  void set_deterministic_radius(double largest_sphere_radius);
+  /// volume set here, from the larger of the two (0: none). Every rank of a distributed mesh
+  /// sets the largest_particle_volume of all ranks, so all sum in the same unit.
+  void set_deterministic_volume(double largest_particle_volume);
+  /// The largest volume of the given particles, as a compute measures them (spheres and
+  /// registered shapes; particles a compute would refuse are skipped).
+  double largest_particle_volume(const vfe_particles& particles) const;
   /// After a compute with deterministic=1: the solid volume per cell in fixed point.
   struct FixedField {
     std::span<const FixedSum> sums;
