@@ -108,6 +108,14 @@ TEST(Hybrid, GradedAndPolyhedralSpheresTakeTheirPathsResult) {
   const auto s = check_paths(snappy, around_tube, "outside=nearest");
   EXPECT_GT(s[1], 0);
   EXPECT_GT(s[2], 0);
+  // box_graded computes on its lattice's graded grid; spheres at its walls take each path's
+  // own boundary rule (exact: the grid's cells and the rest by the polyMesh's rule; pmm: the
+  // polyMesh's driver).
+  Engine box(PolyMeshSpec{kData + "openfoam/box_graded"});
+  Particles walls = random_spheres(10, 40, 0.0, 0.02, 0.0002, 0.0009);
+  walls.add(0.0002, 0.01, 0.01, 0.0003);  // across the wall x = 0
+  const auto b = check_paths(box, walls, "outside=nearest");
+  EXPECT_GT(b[2], 0);
   Engine cylinder(PolyMeshSpec{kData + "openfoam/cylinder_ogrid_coarse"});
   (void)check_paths(cylinder, random_spheres(8, 30, 0.004, 0.016, 0.0003, 0.0012), "outside=centre");
 }

@@ -72,14 +72,6 @@ PathCosts path_costs(const RectilinearContext& ctx, Scratch& /*unused on a grid*
   k.fast_cell = rectilinear_one_cell(ctx, c, Eigen::Vector3d::Constant(r));
   if ((k.fast = k.fast_cell >= 0)) return k;
   const GridCosts& m = rectilinear_costs();
-  const kernels::ParticleTemplate& t = ctx.bank.template_for(2 * r, grid.cell_volume(grid.nearest(c)));
-  k.pmm_template = &t;
-  if (rectilinear_one_cell(ctx, c, Eigen::Vector3d::Constant(r * t.reach)) >= 0) {
-    k.pmm = 0;
-  } else {
-    k.pmm_points = static_cast<std::int64_t>(t.size());
-    k.pmm = m.pmm_particle + double(k.pmm_points) * m.pmm_point;
-  }
   double cells = 1;
   for (int d = 0; d < 3; ++d) {
     const bool wraps = (ctx.opts.periodic >> d) & 1u;
@@ -88,6 +80,18 @@ PathCosts path_costs(const RectilinearContext& ctx, Scratch& /*unused on a grid*
   }
   k.exact_cells = static_cast<std::int64_t>(std::min(cells, 1e18));
   k.exact = m.exact_particle + cells * m.exact_cell;
+  // Locating by search costs enough that exact usually wins: when pmm with the bank's
+  // smallest template (its first) cannot be cheaper, the template is not looked up.
+  const double fewest = ctx.bank.templates.empty() ? 1.0 : double(ctx.bank.templates.front()->size());
+  if (!(m.pmm_particle + fewest * m.pmm_point < k.exact)) {
+    k.pmm_points = static_cast<std::int64_t>(fewest);
+    k.pmm = m.pmm_particle + fewest * m.pmm_point;
+    return k;
+  }
+  const kernels::ParticleTemplate& t = ctx.bank.template_for(2 * r, grid.cell_volume(grid.nearest(c)));
+  k.pmm_template = &t;
+  k.pmm_points = static_cast<std::int64_t>(t.size());
+  k.pmm = m.pmm_particle + double(k.pmm_points) * m.pmm_point;
   return k;
 }
 

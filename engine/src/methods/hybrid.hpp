@@ -44,7 +44,7 @@ struct PathCosts {
   /// pmm's template for the sphere (the bank's pick, made once: pmm then takes it as given)
   const kernels::ParticleTemplate* pmm_template = nullptr;
   double pmm = 0, exact = 0;
-  std::int64_t pmm_points = 0;  ///< pmm's sub-elements (0 on its own fast path)
+  std::int64_t pmm_points = 0;  ///< the sub-elements pmm's estimate counts (0 on its own fast path)
   bool counted = false;         ///< pmm would count per octant
   std::int64_t exact_cells = 0; ///< exact's cells (polyMesh: the candidates, also pmm's)
   std::int64_t box_cells = 0, face_points = 0;  ///< polyMesh: exact's cut box cells, cut cells' face points

@@ -1,5 +1,7 @@
 #include "methods/lattice.hpp"
 
+#include "methods/hybrid.hpp"
+
 #include <algorithm>
 #include <cmath>
 
@@ -52,9 +54,9 @@ LatticeBoundary lattice_boundary(Method m, const BoxLattice& lattice) {
     // nearest to the centre: so does the Cartesian grid's exact, while the separable
     // kernels give each cell beyond a side to the cell along it.
     case Method::exact: return lattice.cartesian ? LatticeBoundary::grid : LatticeBoundary::rest;
-    // auto takes pmm or exact per particle: the rule both share on evenly spaced nodes, the
-    // polyMesh's driver (which chooses as well) on graded ones.
-    case Method::automatic: return lattice.cartesian ? LatticeBoundary::grid : LatticeBoundary::polymesh;
+    // auto takes pmm or exact per particle: the rule both share on evenly spaced nodes, each
+    // path's own on graded ones.
+    case Method::automatic: return lattice.cartesian ? LatticeBoundary::grid : LatticeBoundary::per_path;
     case Method::gaussian:
     case Method::porous_cube: return LatticeBoundary::rest;
     // big_particle shares among the centres of real cells only.
@@ -135,7 +137,19 @@ void lattice_particle(const LatticeContext& ctx, Scratch& s, const Particle& p) 
     ctx.poly_driver(ctx.poly, s, p);
     return;
   }
-  // LatticeBoundary::rest: the grid's cells, then what they miss by the polyMesh's rule.
+  if (ctx.boundary == LatticeBoundary::per_path) {
+    // The grid's choice (rectilinear_auto, below, makes the same one from the same costs).
+    const PathCosts k = path_costs(*ctx.rectilinear, s, p);
+    if (!k.fast && k.pmm < k.exact) {
+      ++s.auto_pmm;
+      Particle q = p;
+      q.shape_template = k.pmm_template;
+      polymesh_pmm(ctx.poly, s, q);
+      return;
+    }
+  }
+  // LatticeBoundary::rest (and per_path's exact): the grid's cells, then what they miss by
+  // the polyMesh's rule.
   Particle dropping = p;
   dropping.outside = Outside::drop;
   const std::int64_t outside_before = s.outside_particles;

@@ -16,6 +16,9 @@ enum class LatticeBoundary {
   grid,      ///< the grid's driver: its rule is the polyMesh's (nearest cell = clamped cell)
   rest,      ///< the grid's driver with outside=drop; the dropped volume goes to outside_poly at the centre
   polymesh,  ///< the polyMesh's driver
+  /// method=auto on a graded lattice: the path the grid's cost model picks, then that path's
+  /// rule (exact: rest; pmm: the polyMesh's driver)
+  per_path,
 };
 
 struct LatticeContext {
