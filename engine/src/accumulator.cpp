@@ -148,7 +148,54 @@ void Accumulator::sorted_sum(tbb::task_arena& arena) {
   });
 }
 
+void Accumulator::convert_fixed(tbb::task_arena& arena, const std::vector<std::int64_t>* cells) {
+  const int e = fixed_exponent_;
+  if (cells) {
+    for (const std::int64_t c : *cells) solid_[static_cast<std::size_t>(c)] = from_fixed(fixed_[static_cast<std::size_t>(c)], e);
+  } else {
+    arena.execute([&] {
+      tbb::parallel_for(tbb::blocked_range<std::int64_t>(0, cells_, 8192), [&](const tbb::blocked_range<std::int64_t>& r) {
+        for (std::int64_t c = r.begin(); c < r.end(); ++c)
+          solid_[static_cast<std::size_t>(c)] = from_fixed(fixed_[static_cast<std::size_t>(c)], e);
+      });
+    });
+  }
+  dropped_ = from_fixed(fixed_.back(), e);
+}
+
+void Accumulator::fixed_sum(tbb::task_arena& arena) {
+  // Any order gives the same integers: blocks in order, one thread (the sort this replaces
+  // cost more).
+  clear_solid();
+  fixed_.assign(static_cast<std::size_t>(cells_ + 1), 0);
+  fixed_exponent_ = plan_.unit_exponent;
+  const int e = fixed_exponent_;
+  if (plan_.touched_only) {
+    fixed_marks_.assign(static_cast<std::size_t>(cells_ + 1), 0);
+    for (const DepositBlock& b : next_)
+      for (const Deposit& d : b.deposits) {
+        const auto c = static_cast<std::size_t>(d.cell);
+        if (!fixed_marks_[c] && d.cell != cells_) {
+          fixed_marks_[c] = 1;
+          touched_.push_back(d.cell);
+        }
+        fixed_[c] += to_fixed(d.volume, e);
+      }
+    convert_fixed(arena, &touched_);
+    touched_valid_ = true;
+  } else {
+    for (const DepositBlock& b : next_)
+      for (const Deposit& d : b.deposits) fixed_[static_cast<std::size_t>(d.cell)] += to_fixed(d.volume, e);
+    convert_fixed(arena, nullptr);
+  }
+  fixed_valid_ = true;
+}
+
 void Accumulator::reduce_blocks(tbb::task_arena& arena, bool deterministic) {
+  if (plan_.fixed_point) {
+    fixed_sum(arena);
+    return;
+  }
   if (deterministic || plan_.strategy == Accumulation::sorted) {
     sorted_sum(arena);
     return;
@@ -197,6 +244,28 @@ void Accumulator::apply_incremental(tbb::task_arena& arena, bool deterministic) 
       for (std::uint32_t k = next.offsets[i]; k < next.offsets[i + 1]; ++k) add(next.deposits[k]);
     }
   };
+  if (plan_.fixed_point) {  // exact integers: equal to a fresh sum of the same deposits
+    if (reuse_n_ == 0) {
+      fixed_.assign(static_cast<std::size_t>(cells_ + 1), 0);
+      fixed_exponent_ = plan_.unit_exponent;
+    }
+    const int e = fixed_exponent_;
+    fixed_marks_.assign(static_cast<std::size_t>(cells_ + 1), 0);
+    std::vector<std::int64_t> changed;
+    for (std::int64_t b = 0; b < nblocks; ++b)
+      apply_block(b, [&](const Deposit& d) {
+        const auto c = static_cast<std::size_t>(d.cell);
+        if (!fixed_marks_[c] && d.cell != cells_) {
+          fixed_marks_[c] = 1;
+          changed.push_back(d.cell);
+        }
+        fixed_[c] += to_fixed(d.volume, e);
+      });
+    convert_fixed(arena, reuse_n_ == 0 ? nullptr : &changed);
+    fixed_valid_ = true;
+    return;
+  }
+  fixed_valid_ = false;
   double dropped = 0;
   if (deterministic || plan_.strategy == Accumulation::sorted) {  // block order: the same sums for any thread count
     for (std::int64_t b = 0; b < nblocks; ++b)
@@ -239,6 +308,7 @@ void Accumulator::apply_incremental(tbb::task_arena& arena, bool deterministic) 
 void Accumulator::commit(tbb::task_arena& arena, bool deterministic) {
   const std::int64_t nblocks = static_cast<std::int64_t>(next_.size());
   moved_list_.clear();
+  if (!plan_.fixed_point) fixed_valid_ = false;
   if (plan_.incremental) {
     apply_incremental(arena, deterministic);
     blocks_.resize(static_cast<std::size_t>(nblocks));

@@ -20,6 +20,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -30,13 +31,27 @@ namespace vfe::detail {
 /// count; small enough that incremental redoes little for one moved particle.
 inline constexpr std::int64_t kDepositBlock = 512;
 
+/// deterministic=1: each deposit is rounded to a whole number of units 2^exponent and every
+/// cell sums those integers. Integer sums are exact, so a cell's sum is the same whatever
+/// the order its deposits come in (threads, particle order, ranks of a distributed mesh),
+/// and incremental's subtract-and-add equals a fresh sum. 128 bits: with the unit
+/// 2^-80 of the largest particle volume, a deposit is resolved to 1e-24 of it and a cell
+/// holds 2^46 particle volumes before it could overflow.
+inline FixedSum to_fixed(double value, int exponent) {
+  return static_cast<FixedSum>(std::nearbyint(std::ldexp(value, -exponent)));
+}
+
 /// How one compute accumulates: the resolved strategy and the skips that combine with it.
 struct AccumulationPlan {
   Accumulation strategy = Accumulation::privatised;  ///< privatised, atomic or sorted (never automatic)
   bool touched_only = false;  ///< clear, merge and sum only touched cells (privatised or sorted)
   bool incremental = false;   ///< redo only particles that moved (keeps deposit blocks)
   bool keep_deposits = false; ///< keep every particle's deposits (weights=1)
-  bool uses_blocks() const { return strategy == Accumulation::sorted || incremental || keep_deposits; }
+  bool fixed_point = false;   ///< deterministic=1: sum blocks in fixed point (needs blocks)
+  int unit_exponent = 0;      ///< fixed_point: the unit 2^unit_exponent (fixed_unit_exponent)
+  bool uses_blocks() const {
+    return strategy == Accumulation::sorted || incremental || keep_deposits || fixed_point;
+  }
 };
 
 /// Particles' deposits by blocks of kDepositBlock: particle i of block b has
@@ -55,6 +70,13 @@ class Accumulator {
   std::int64_t cell_count() const { return cells_; }
   /// The committed field (solid volume per cell).
   const std::vector<double>& field() const { return solid_; }
+  /// deterministic=1: the committed field in fixed point (cells values, units
+  /// 2^fixed_exponent()); empty after a compute that was not deterministic.
+  std::span<const FixedSum> fixed_field() const {
+    return fixed_valid_ ? std::span<const FixedSum>(fixed_.data(), static_cast<std::size_t>(cells_))
+                        : std::span<const FixedSum>();
+  }
+  int fixed_exponent() const { return fixed_exponent_; }
   /// Volume that went to the dropped slot in the committed field.
   double dropped() const { return dropped_; }
   /// Particles computed anew by the last commit.
@@ -119,6 +141,9 @@ class Accumulator {
   void merge_private(tbb::task_arena& arena, bool onto_solid);
   void reduce_blocks(tbb::task_arena& arena, bool deterministic);
   void sorted_sum(tbb::task_arena& arena);
+  /// Makes solid_ (and dropped_) the doubles of fixed_ at the cells listed, or every cell.
+  void convert_fixed(tbb::task_arena& arena, const std::vector<std::int64_t>* cells);
+  void fixed_sum(tbb::task_arena& arena);
   void apply_incremental(tbb::task_arena& arena, bool deterministic);
   /// Clears the committed field where it may be non-zero.
   void clear_solid();
@@ -147,6 +172,13 @@ class Accumulator {
   std::vector<std::int64_t> touched_;
   bool touched_valid_ = false;
 
+  // fixed_point: the committed field as integers (cells + 1: the last is dropped), valid
+  // after a fixed-point commit, in units 2^fixed_exponent_.
+  std::vector<FixedSum> fixed_;
+  bool fixed_valid_ = false;
+  int fixed_exponent_ = 0;
+  std::vector<std::uint8_t> fixed_marks_;  // touched_only, incremental: cells listed once
+
   // sorted: (cell, position) keys and values.
   std::vector<std::pair<std::int64_t, std::int64_t>> sort_keys_;
   std::vector<double> sort_values_;
@@ -162,7 +194,9 @@ void Accumulator::deposit(tbb::task_arena& arena, tbb::enumerable_thread_specifi
   try {
     const std::int64_t nblocks = (n + kDepositBlock - 1) / kDepositBlock;
     if (plan.uses_blocks()) {
-      const bool fresh = !plan.incremental || !kept_ || !reusable_ || n < kept_n_;
+      // A fixed-point field continues only in the same unit (and a double one only as doubles).
+      const bool same_sums = plan.fixed_point ? fixed_valid_ && fixed_exponent_ == plan.unit_exponent : !fixed_valid_;
+      const bool fresh = !plan.incremental || !kept_ || !reusable_ || n < kept_n_ || !same_sums;
       reuse_n_ = fresh ? 0 : kept_n_;
       next_.resize(static_cast<std::size_t>(nblocks));
       arena.execute([&] {

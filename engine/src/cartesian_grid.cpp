@@ -25,6 +25,12 @@ CartesianGrid::CartesianGrid(const CartesianGridSpec& spec) {
     h_[d] = spec.spacing[d];
     inv_h_[d] = 1.0 / spec.spacing[d];
     n_[d] = spec.cells[d];
+    if (std::abs(spec.first_cell[d]) > (std::int64_t(1) << 40)) {
+      msg << "first_cell[" << d << "] (" << axis[d] << ") is " << spec.first_cell[d]
+          << "; give a global cell index within +-2^40";
+      throw Error(VFE_ERROR_INVALID_ARGUMENT, msg.str());
+    }
+    first_[d] = spec.first_cell[d];
   }
   // The cell volume, its inverse and the grid's far corner must be ordinary doubles: a
   // spacing such as 1e-200 gives a volume of 0 (void fraction NaN), 5e-324 an inverse of inf.

@@ -19,14 +19,26 @@ class CartesianGrid {
 
   std::int64_t cell_count() const { return n_[0] * n_[1] * n_[2]; }
   double cell_volume() const { return h_[0] * h_[1] * h_[2]; }
+  /// The origin of the grid this one is a block of (global node 0); node(d, 0) is this
+  /// grid's lower corner.
   const Eigen::Vector3d& origin() const { return o_; }
   const Eigen::Vector3d& spacing() const { return h_; }
   const std::array<std::int64_t, 3>& cells() const { return n_; }
-  Eigen::Vector3d upper() const { return o_ + h_.cwiseProduct(Eigen::Vector3d(double(n_[0]), double(n_[1]), double(n_[2]))); }
+  /// Coordinate of node i (the lower face of local cell i) along axis d. Every position of
+  /// the grid is computed from the global index first + i, so that a block of a larger grid
+  /// (CartesianGridSpec::first_cell) gives the larger grid's coordinates bit for bit.
+  double node(int d, std::int64_t i) const { return o_[d] + double(first_[d] + i) * h_[d]; }
+  /// Coordinate of the centre of local cell i along axis d.
+  double centre(int d, std::int64_t i) const { return o_[d] + (double(first_[d] + i) + 0.5) * h_[d]; }
+  Eigen::Vector3d lower() const { return {node(0, 0), node(1, 0), node(2, 0)}; }
+  Eigen::Vector3d upper() const { return {node(0, n_[0]), node(1, n_[1]), node(2, n_[2])}; }
+  /// The global index of local cell 0 along axis d (CartesianGridSpec::first_cell).
+  std::int64_t first(int d) const { return first_[d]; }
+  bool is_block() const { return first_[0] != 0 || first_[1] != 0 || first_[2] != 0; }
 
   /// Integer cell coordinate of x along axis d (floor; may be outside [0, n), and is
   /// bounded by +-2^60 so that far-away points stay representable).
-  std::int64_t axis_index(int d, double x) const { return fast_floor((x - o_[d]) * inv_h_[d]); }
+  std::int64_t axis_index(int d, double x) const { return fast_floor(axis_coordinate(d, x)) - first_[d]; }
 
   /// floor(t) as an integer without a libm call (baseline x86-64 has no SSE4.1 round).
   static std::int64_t fast_floor(double t) {
@@ -35,7 +47,9 @@ class CartesianGrid {
     const auto i = static_cast<std::int64_t>(t);
     return i - (t < static_cast<double>(i));
   }
-  /// Coordinate of x in cell units along axis d (the argument of axis_index's floor).
+  /// Coordinate of x in cell units of the global grid along axis d (local cell i spans
+  /// [first + i, first + i + 1)): the argument of axis_index's floor. Global, because a
+  /// coordinate shifted by whole cells would round differently from the larger grid's.
   double axis_coordinate(int d, double x) const { return (x - o_[d]) * inv_h_[d]; }
   std::int64_t clamp_axis(int d, std::int64_t i) const { return i < 0 ? 0 : (i >= n_[d] ? n_[d] - 1 : i); }
 
@@ -75,7 +89,7 @@ class CartesianGrid {
 
  private:
   Eigen::Vector3d o_, h_, inv_h_;
-  std::array<std::int64_t, 3> n_;
+  std::array<std::int64_t, 3> n_, first_;
   unsigned periodic_ = 0;
 };
 

@@ -129,6 +129,7 @@ struct Engine::Impl {
   const ParticleTemplate divided = kernels::make_divided_template();
   Report report{};
   bool have_field = false;
+  double deterministic_volume_bound = 0;  ///< set_deterministic_volume
   // smoothing_length > 0: the smoothed field (what the host sees) and the mesh's face graph.
   std::vector<double> smoothed;
   std::unique_ptr<detail::FaceGraph> faces;
@@ -325,6 +326,7 @@ struct Engine::Impl {
             a.volume += b.volume;
             a.d_min = std::min(a.d_min, b.d_min);
             a.d_max = std::max(a.d_max, b.d_max);
+            a.shape_volume_max = std::max(a.shape_volume_max, b.shape_volume_max);
             a.beyond += b.beyond;
             return a;
           },
@@ -387,6 +389,8 @@ struct Engine::Impl {
           acc.d_min = std::min(acc.d_min, 2 * rad);
           acc.d_max = std::max(acc.d_max, 2 * rad);
           acc.beyond += bounds.beyond(c, rad);
+        } else {
+          acc.shape_volume_max = std::max(acc.shape_volume_max, vol);
         }
       }
     });
@@ -397,7 +401,8 @@ struct Engine::Impl {
   /// direct on a Cartesian grid with spheres and private fields: validation, locate and the
   /// add in one pass over the particles, so direct costs little more than reading them.
   bool fuses_direct(const ParticleArrays& pa, const detail::AccumulationPlan& pl) const {
-    return opts.method == Method::direct && mesh.kind() == MeshKind::cartesian && !pa.shape_ids &&
+    return opts.method == Method::direct && mesh.kind() == MeshKind::cartesian && !mesh.cartesian()->is_block() &&
+           !pa.shape_ids &&
            opts.orientation != Orientation::given && pl.strategy == Accumulation::privatised && !pl.uses_blocks() &&
            !pl.touched_only;
   }
@@ -509,6 +514,7 @@ struct Engine::Impl {
     plan.touched_only = opts.touched_only;
     plan.incremental = opts.incremental;
     plan.keep_deposits = opts.weights;
+    plan.fixed_point = opts.deterministic;
     if (opts.deterministic) {
       plan.strategy = Accumulation::sorted;
     } else if (opts.accumulation != Accumulation::automatic) {
@@ -542,10 +548,13 @@ struct Engine::Impl {
                   "orientation=given needs orientations (4n quaternions w, x, y, z); pass them or "
                   "set orientation=random");
 
-    const detail::AccumulationPlan pl = plan(pa.n);
+    detail::AccumulationPlan pl = plan(pa.n);
     for (Scratch& sc : scratch) sc.reset_counters();
     const bool fused = fuses_direct(pa, pl);
     const Validation v = fused ? fused_direct(pa, pl) : validate(pa);
+    if (pl.fixed_point)  // every rank of a distributed mesh gives the same bound: the same unit
+      pl.unit_exponent = fixed_unit_exponent(
+          std::max({deterministic_volume_bound, v.shape_volume_max, v.d_max > 0 ? sphere_volume(v.d_max / 2) : 0.0}));
     const detail::TemplateBank bank =
         templates.prepare(opts, v.d_min, v.d_max, mesh.smallest_cell_volume(), mesh.largest_cell_volume());
     if ((opts.method == Method::pmm || opts.method == Method::automatic) && !bank.fixed && !bank.templates.empty())
@@ -803,6 +812,25 @@ struct Engine::Impl {
     w.valid = true;
   }
 
+  /// deposit's loop: per cell c and component j, sum(c, j, terms) where terms(add) calls
+  /// add(fraction, value) for the cell's particles in particle order.
+  template <class Sum>
+  void for_cell_sums(std::int64_t k, Sum&& sum, std::span<const double> values) const {
+    build_cell_weights();
+    const CellWeights& w = cell_weights;
+    arena->execute([&] {
+      tbb::parallel_for(tbb::blocked_range<std::int64_t>(0, mesh.cell_count(), 1024),
+                        [&](const tbb::blocked_range<std::int64_t>& r) {
+                          for (std::int64_t c = r.begin(); c < r.end(); ++c)
+                            for (std::int64_t j = 0; j < k; ++j)
+                              sum(c, j, [&](auto&& add) {
+                                for (std::int64_t e = w.offsets[c]; e < w.offsets[c + 1]; ++e)
+                                  add(w.fractions[e], values[w.particles[e] * k + j]);
+                              });
+                        });
+    });
+  }
+
   // --- reports --------------------------------------------------------------------------
 
   /// The counters of this compute from the threads' scratch. Throws the outside=error
@@ -983,9 +1011,9 @@ void Engine::configure(std::string_view options) {
                 "accumulation=atomic; use accumulation=private, sorted or auto");
   if (next.deterministic && (next.accumulation == Accumulation::privatised || next.accumulation == Accumulation::atomic))
     throw Error(VFE_ERROR_INVALID_ARGUMENT,
-                "deterministic=1 sums every cell in a fixed order (accumulation=sorted); accumulation=" +
-                    option_value(next, "accumulation") + " cannot give bitwise reproducible sums: use accumulation=auto "
-                    "or sorted with deterministic=1");
+                "deterministic=1 sums every cell in fixed point from per-block deposit lists; accumulation=" +
+                    option_value(next, "accumulation") + " adds doubles in whatever order threads run: use "
+                    "accumulation=auto or sorted with deterministic=1");
   const bool new_arena = next.threads != impl_->opts.threads;
   if (next.periodic != impl_->mesh.periodic()) impl_->faces.reset();  // the face graph wraps with the axes
   impl_->mesh.set_periodic(next.periodic);
@@ -1215,18 +1243,65 @@ void Engine::deposit(std::int32_t components, std::span<const double> values, st
   const std::int64_t k = components, ncell = cell_count(), n = impl_->acc.kept_particles();
   check_size(values.size(), n * k, "values", "components per particle of the last compute");
   check_size(out.size(), ncell * k, "output", "components per cell");
-  impl_->build_cell_weights();
-  const Impl::CellWeights& w = impl_->cell_weights;
-  impl_->arena->execute([&] {
-    tbb::parallel_for(tbb::blocked_range<std::int64_t>(0, ncell, 1024), [&](const tbb::blocked_range<std::int64_t>& r) {
-      for (std::int64_t c = r.begin(); c < r.end(); ++c)
-        for (std::int64_t j = 0; j < k; ++j) {
-          double sum = 0;  // particle order: deterministic
-          for (std::int64_t e = w.offsets[c]; e < w.offsets[c + 1]; ++e) sum += w.fractions[e] * values[w.particles[e] * k + j];
-          out[c * k + j] = sum;
-        }
-    });
-  });
+  if (impl_->opts.deterministic) {  // fixed point: the same sums in any particle order
+    std::vector<int> exponents(static_cast<std::size_t>(k));
+    for (std::int64_t j = 0; j < k; ++j) {
+      double largest = 0;
+      for (std::int64_t p = 0; p < n; ++p) largest = std::max(largest, std::abs(values[p * k + j]));
+      exponents[j] = fixed_unit_exponent(largest);
+    }
+    std::vector<FixedSum> sums(out.size());
+    deposit_fixed(components, values, exponents, sums);
+    for (std::size_t i = 0; i < out.size(); ++i) out[i] = from_fixed(sums[i], exponents[i % k]);
+    return;
+  }
+  impl_->for_cell_sums(k, [&](std::int64_t c, std::int64_t j, auto&& terms) {
+    double sum = 0;  // particle order
+    terms([&](double f, double v) { sum += f * v; });
+    out[c * k + j] = sum;
+  }, values);
+}
+
+void Engine::deposit_fixed(std::int32_t components, std::span<const double> values, std::span<const int> exponents,
+                           std::span<FixedSum> out) const {
+  impl_->require_weights("deposit");
+  const std::int64_t k = components, n = impl_->acc.kept_particles();
+  check_size(values.size(), n * k, "values", "components per particle of the last compute");
+  check_size(out.size(), cell_count() * k, "output", "components per cell");
+  check_size(exponents.size(), k, "exponents", "one per component");
+  for (std::int64_t p = 0; p < n; ++p)  // beyond 2^-80 x 2^127 the sums could overflow
+    for (std::int64_t j = 0; j < k; ++j)
+      if (!(std::abs(values[p * k + j]) < std::ldexp(1.0, exponents[j] + 81)))
+        throw Error(VFE_ERROR_INVALID_ARGUMENT, "value " + std::to_string(j) + " of particle " + std::to_string(p) +
+                                                    " is not finite or exceeds the largest magnitude the fixed-point "
+                                                    "sums were scaled for; pass finite values");
+  impl_->for_cell_sums(k, [&](std::int64_t c, std::int64_t j, auto&& terms) {
+    FixedSum sum = 0;
+    terms([&](double f, double v) { sum += detail::to_fixed(f * v, exponents[j]); });
+    out[c * k + j] = sum;
+  }, values);
+}
+
+void Engine::set_deterministic_volume(double largest_particle_volume) {
+  impl_->deterministic_volume_bound = largest_particle_volume > 0 ? largest_particle_volume : 0;
+}
+
+double Engine::largest_particle_volume(const vfe_particles& particles) const {
+  const ParticleArrays pa = arrays_of(particles);
+  const auto nshapes = static_cast<std::int32_t>(impl_->shapes.size());
+  double largest = 0;
+  for (std::int64_t p = 0; p < pa.n; ++p) {
+    if (pa.shape_ids && (pa.shape_id(p) < 0 || pa.shape_id(p) >= nshapes)) continue;
+    const double v = impl_->particle_volume(pa, p);
+    if (v < 1e300) largest = std::max(largest, v);  // as validation: NaN and overflow are refused there
+  }
+  return largest;
+}
+
+Engine::FixedField Engine::fixed_solid() const {
+  if (impl_->acc.fixed_field().empty() && cell_count() > 0)
+    throw Error(VFE_ERROR_INVALID_ARGUMENT, "no fixed-point field: compute with deterministic=1 first");
+  return {impl_->acc.fixed_field(), impl_->acc.fixed_exponent()};
 }
 
 void Engine::interpolate(std::int32_t components, std::span<const double> cell_field, std::span<double> out) const {

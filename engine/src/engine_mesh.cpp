@@ -72,7 +72,7 @@ Eigen::Vector3d EngineMesh::cell_centre(std::int64_t c) const {
       const CartesianGrid& g = *cartesian_;
       const auto& n = g.cells();
       const std::int64_t i = c % n[0], j = (c / n[0]) % n[1], k = c / (n[0] * n[1]);
-      return g.origin() + g.spacing().cwiseProduct(Eigen::Vector3d(double(i) + 0.5, double(j) + 0.5, double(k) + 0.5));
+      return {g.centre(0, i), g.centre(1, j), g.centre(2, k)};
     }
     case MeshKind::rectilinear: return rectilinear_->cell_centre(c);
     case MeshKind::polyhedral: return poly_->cell_centre(c);
@@ -82,7 +82,7 @@ Eigen::Vector3d EngineMesh::cell_centre(std::int64_t c) const {
 
 Eigen::AlignedBox3d EngineMesh::bounds() const {
   switch (kind_) {
-    case MeshKind::cartesian: return {cartesian_->origin(), cartesian_->upper()};
+    case MeshKind::cartesian: return {cartesian_->lower(), cartesian_->upper()};
     case MeshKind::rectilinear: return {rectilinear_->lower(), rectilinear_->upper()};
     case MeshKind::polyhedral: return poly_->bounds();
   }
@@ -105,10 +105,11 @@ Eigen::Vector3d EngineMesh::wrap_periodic(const Eigen::Vector3d& x) const {
   for (int d = 0; d < 3; ++d) {
     if (!g.periodic(d)) continue;
     const double length = g.spacing()[d] * double(g.cells()[d]);
-    double u = std::fmod(c[d] - g.origin()[d], length);
+    const double lo = g.node(d, 0);
+    double u = std::fmod(c[d] - lo, length);
     if (u < 0) u += length;
     if (!(u < length)) u = 0;  // fmod of a value just below a multiple of the length
-    c[d] = g.origin()[d] + u;
+    c[d] = lo + u;
   }
   return c;
 }

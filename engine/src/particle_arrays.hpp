@@ -49,6 +49,7 @@ struct Validation {
   std::int64_t first_bad = std::numeric_limits<std::int64_t>::max();
   double volume = 0;  ///< of all particles
   double d_min = std::numeric_limits<double>::infinity(), d_max = 0;  ///< spheres' diameters
+  double shape_volume_max = 0;  ///< the largest volume of a particle that is not a sphere
   std::int64_t beyond = 0;  ///< spheres reaching beyond a grid's box by more than outside_tolerance
 };
 

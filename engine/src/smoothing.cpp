@@ -24,7 +24,7 @@ FaceGraph face_graph(const EngineMesh& mesh) {
   if (const CartesianGrid* c = mesh.cartesian()) {
     n = c->cells();
     for (int d = 0; d < 3; ++d)
-      for (std::int64_t i = 0; i <= n[d]; ++i) nodes[d].push_back(c->origin()[d] + double(i) * c->spacing()[d]);
+      for (std::int64_t i = 0; i <= n[d]; ++i) nodes[d].push_back(c->node(d, i));
   } else {
     const RectilinearGrid& r = *mesh.rectilinear();
     n = r.cells();

@@ -136,10 +136,27 @@ std::int64_t Halo::ghost_cells_sent() const {
 }
 
 template <class T>
+MPI_Datatype mpi_type() {
+  if constexpr (std::is_same_v<T, double>) {
+    return MPI_DOUBLE;
+  } else if constexpr (std::is_same_v<T, std::int64_t>) {
+    return MPI_INT64_T;
+  } else {
+    static_assert(std::is_same_v<T, FixedSum>);
+    static const MPI_Datatype fixed = [] {  // 128-bit integers as two 64-bit words, moved as they are
+      MPI_Datatype t;
+      MPI_Type_contiguous(2, MPI_INT64_T, &t);
+      MPI_Type_commit(&t);
+      return t;
+    }();
+    return fixed;
+  }
+}
+
+template <class T>
 void neighbour_exchange(MPI_Comm graph, int degree, const std::vector<T>& send, const std::vector<int>& send_counts,
                         std::vector<T>& recv, std::vector<int>& recv_counts) {
-  static_assert(std::is_same_v<T, double> || std::is_same_v<T, std::int64_t>);
-  const MPI_Datatype type = std::is_same_v<T, double> ? MPI_DOUBLE : MPI_INT64_T;
+  const MPI_Datatype type = mpi_type<T>();
   const std::size_t n = static_cast<std::size_t>(degree);
   recv_counts.assign(n, 0);
   if (MPI_Neighbor_alltoall(send_counts.data(), 1, MPI_INT, recv_counts.data(), 1, MPI_INT, graph) != MPI_SUCCESS)
@@ -160,8 +177,14 @@ template void neighbour_exchange<double>(MPI_Comm, int, const std::vector<double
                                          std::vector<double>&, std::vector<int>&);
 template void neighbour_exchange<std::int64_t>(MPI_Comm, int, const std::vector<std::int64_t>&,
                                                const std::vector<int>&, std::vector<std::int64_t>&, std::vector<int>&);
+template void neighbour_exchange<FixedSum>(MPI_Comm, int, const std::vector<FixedSum>&, const std::vector<int>&,
+                                           std::vector<FixedSum>&, std::vector<int>&);
 
 void Halo::reverse_sum(std::span<const double> extended, std::span<double> owned, int components) const {
+  run(true, extended, owned, components);
+}
+
+void Halo::reverse_sum(std::span<const FixedSum> extended, std::span<FixedSum> owned, int components) const {
   run(true, extended, owned, components);
 }
 
@@ -171,9 +194,10 @@ void Halo::forward_fill(std::span<const double> owned, std::span<double> extende
 
 // One plan, two directions: reverse sends ghost cells and adds into owned cells, forward
 // sends owned cells and overwrites ghost cells.
-void Halo::run(bool reverse, std::span<const double> from, std::span<double> to, int components) const {
+template <class T>
+void Halo::run(bool reverse, std::span<const T> from, std::span<T> to, int components) const {
   const std::size_t k = static_cast<std::size_t>(components);
-  std::vector<double> send, recv;
+  std::vector<T> send, recv;
   std::vector<int> send_counts, recv_counts;
   for (const HaloPeer& p : peers_) {
     const std::vector<std::int64_t>& out = reverse ? p.ghost : p.owned;
@@ -190,7 +214,7 @@ void Halo::run(bool reverse, std::span<const double> from, std::span<double> to,
                                           " does not match this rank's plan; please report this");
     for (const std::int64_t c : in)
       for (std::size_t j = 0; j < k; ++j) {
-        double& cell = to[static_cast<std::size_t>(c) * k + j];
+        T& cell = to[static_cast<std::size_t>(c) * k + j];
         cell = reverse ? cell + recv[at++] : recv[at++];
       }
   }

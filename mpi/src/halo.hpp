@@ -5,6 +5,7 @@
 #pragma once
 
 #include <mpi.h>
+#include <vfe/engine.hpp>
 
 #include <array>
 #include <cstdint>
@@ -70,6 +71,8 @@ class Halo {
   /// owned += the ghosts other ranks (or this one, across a periodic wall) hold for it;
   /// extended is the local field (owned + ghost cells), k values per cell. Collective.
   void reverse_sum(std::span<const double> extended, std::span<double> owned, int components) const;
+  /// The same in fixed point (deterministic=1): integer sums, exact in any order.
+  void reverse_sum(std::span<const FixedSum> extended, std::span<FixedSum> owned, int components) const;
   /// extended's ghost cells = their owners' values; owned cells are not written. Collective.
   void forward_fill(std::span<const double> owned, std::span<double> extended, int components) const;
 
@@ -78,7 +81,8 @@ class Halo {
   std::int64_t ghost_cells_sent() const;
 
  private:
-  void run(bool reverse, std::span<const double> from, std::span<double> to, int components) const;
+  template <class T>
+  void run(bool reverse, std::span<const T> from, std::span<T> to, int components) const;
   MPI_Comm graph_ = MPI_COMM_NULL;
   std::vector<HaloPeer> peers_;
 };

@@ -37,6 +37,7 @@ struct FaceEntry {
   std::vector<std::int64_t> points;  // local point indices
   std::int64_t owner = -1, neighbour = -1;  // local cells on the global owner's and neighbour's side
   bool global_boundary = false;              // a boundary face of the undecomposed mesh
+  std::int64_t global_id = -1;               // the face in the undecomposed mesh
 };
 
 int as_int(std::size_t n) {
@@ -233,7 +234,8 @@ GhostedPolyMesh build_ghosted(MPI_Comm comm, const RankPolyMesh& m, const std::v
     (reversed ? e.neighbour : e.owner) = b.owner[f];
     (reversed ? e.owner : e.neighbour) = other;
     e.global_boundary = f >= b.neighbour.size() && !m.coupled[f];
-    if (!face_at.emplace(std::abs(m.face_ids[f]) - 1, faces.size()).second)
+    e.global_id = std::abs(m.face_ids[f]) - 1;
+    if (!face_at.emplace(e.global_id, faces.size()).second)
       fail("global face " + std::to_string(std::abs(m.face_ids[f]) - 1) + " appears twice in this rank's mesh");
     faces.push_back(std::move(e));
   }
@@ -276,6 +278,7 @@ GhostedPolyMesh build_ghosted(MPI_Comm comm, const RankPolyMesh& m, const std::v
           FaceEntry e;
           for (std::int64_t i = 0; i < n; ++i) e.points.push_back(local_point.at(recv_ints[cursor + static_cast<std::size_t>(i)]));
           e.global_boundary = (flags & 2) != 0;
+          e.global_id = id;
           faces.push_back(std::move(e));
         }
         cursor += static_cast<std::size_t>(n);
@@ -295,6 +298,9 @@ GhostedPolyMesh build_ghosted(MPI_Comm comm, const RankPolyMesh& m, const std::v
   //    then boundary faces, each owned by its one cell here (a face whose cell here is the
   //    global neighbour is reversed). A ghost with a face that is a boundary here but not in
   //    the whole mesh is on the layer's outer edge.
+  //    Within each kind, faces in the undecomposed mesh's order: a cell then lists its faces
+  //    as the serial engine does, so its volume, centre and overlaps round the same way.
+  std::sort(faces.begin(), faces.end(), [](const FaceEntry& a, const FaceEntry& b) { return a.global_id < b.global_id; });
   std::vector<char> on_rim(g.cell_ids.size(), 0);
   for (int pass = 0; pass < 2; ++pass)
     for (FaceEntry& e : faces) {

@@ -23,6 +23,10 @@
 #include <vector>
 
 using vfe::Error;
+using vfe::Engine;
+using vfe::FixedSum;
+using vfe::fixed_unit_exponent;
+using vfe::from_fixed;
 using vfe::mpi::Box;
 using vfe::mpi::Decomposition;
 using vfe::mpi::Halo;
@@ -123,7 +127,8 @@ void rebuild(DistributedEngine& e, const Index3& ghost) {
   const Box ext = dec.extended(e.rank);
   vfe::CartesianGridSpec spec;
   for (int d = 0; d < 3; ++d) {
-    spec.origin[d] = e.origin[d] + static_cast<double>(ext.lo[d]) * e.spacing[d];
+    spec.origin[d] = e.origin[d];  // the block of the global grid: its coordinates, bit for bit
+    spec.first_cell[d] = ext.lo[d];
     spec.spacing[d] = e.spacing[d];
     spec.cells[d] = ext.hi[d] - ext.lo[d];
   }
@@ -309,7 +314,8 @@ double edge_layer_volume(const DistributedEngine& e) {
 
 // Copies the owned cells between an extended-block field and an owned-cell field (k values
 // per cell): to_owned reads extended, else writes it.
-void copy_owned(const DistributedEngine& e, bool to_owned, double* extended, double* owned, int k) {
+template <class T>
+void copy_owned(const DistributedEngine& e, bool to_owned, T* extended, T* owned, int k) {
   if (e.poly) {  // owned cells come first
     const std::size_t n = static_cast<std::size_t>(e.owned_cells() * k);
     if (to_owned)
@@ -322,9 +328,9 @@ void copy_owned(const DistributedEngine& e, bool to_owned, double* extended, dou
   const Index3 n = ext.extent(), m = b.extent();
   for (std::int64_t z = 0; z < m[2]; ++z)
     for (std::int64_t y = 0; y < m[1]; ++y) {
-      double* in_extended =
+      T* in_extended =
           extended + k * ((b.lo[0] - ext.lo[0]) + n[0] * ((y + b.lo[1] - ext.lo[1]) + n[1] * (z + b.lo[2] - ext.lo[2])));
-      double* in_owned = owned + k * (m[0] * (y + m[1] * z));
+      T* in_owned = owned + k * (m[0] * (y + m[1] * z));
       if (to_owned)
         std::copy_n(in_extended, m[0] * k, in_owned);
       else
@@ -559,7 +565,7 @@ double place_outside_centres(const DistributedEngine& e, const vfe_particles& p,
 void DistributedEngine::compute(const vfe_particles& p, std::span<double> out) {
   std::vector<double> wrapped;
   std::vector<std::int64_t> unlocated;  // a polyMesh's particles whose centres lie in no cell held here
-  double maxima[3] = {0, 0, 0};  // largest sphere radius, shape reach, unlocated centres
+  double maxima[4] = {0, 0, 0, 0};  // largest sphere radius, shape reach, unlocated centres, particle volume
   collective(
       *this,
       [&] {
@@ -584,6 +590,7 @@ void DistributedEngine::compute(const vfe_particles& p, std::span<double> out) {
         const std::array<double, 2> largest = largest_reach(*this, p);
         maxima[0] = largest[0];
         maxima[1] = largest[1];
+        if (local->option("deterministic") == "1") maxima[3] = local->largest_particle_volume(p);
       },
       maxima);
   const double max_radius = maxima[0], max_shape = maxima[1];
@@ -612,6 +619,7 @@ void DistributedEngine::compute(const vfe_particles& p, std::span<double> out) {
           mine.centres_stride = 0;
         }
         const double wall0 = MPI_Wtime(), cpu0 = thread_cpu_seconds();
+        local->set_deterministic_volume(maxima[3]);  // deterministic=1: one fixed-point unit on every rank
         local->compute(mine, extended);
         local_cpu_seconds = thread_cpu_seconds() - cpu0;
         local_seconds = MPI_Wtime() - wall0;
@@ -631,8 +639,16 @@ void DistributedEngine::compute(const vfe_particles& p, std::span<double> out) {
   const vfe_status halo_sum = attempt(
       [&] {
         std::vector<double> owned(static_cast<std::size_t>(owned_cells()));
-        copy_owned(*this, true, extended.data(), owned.data(), 1);
-        halo.reverse_sum(extended, owned, 1);
+        if (local->option("deterministic") == "1") {  // integers: the owner's sum is the serial one, bit for bit
+          const Engine::FixedField fixed = local->fixed_solid();
+          std::vector<FixedSum> ext(fixed.sums.begin(), fixed.sums.end()), mine(owned.size());
+          copy_owned(*this, true, ext.data(), mine.data(), 1);
+          halo.reverse_sum(std::span<const FixedSum>(ext), mine, 1);
+          for (std::size_t c = 0; c < owned.size(); ++c) owned[c] = from_fixed(mine[c], fixed.exponent);
+        } else {
+          copy_owned(*this, true, extended.data(), owned.data(), 1);
+          halo.reverse_sum(extended, owned, 1);
+        }
         solid = std::move(owned);
       },
       message);
@@ -816,14 +832,37 @@ void DistributedEngine::weights(std::span<std::int64_t> offsets, std::span<std::
 }
 
 void DistributedEngine::deposit(std::int32_t components, std::span<const double> values, std::span<double> out) {
-  std::vector<double> owned;
-  collective(*this, [&] {
-    std::vector<double> ext(extended.size() * static_cast<std::size_t>(components));
-    local->deposit(components, values, ext);
-    owned.resize(static_cast<std::size_t>(owned_cells() * components));
-    copy_owned(*this, true, ext.data(), owned.data(), components);
-    halo.reverse_sum(ext, owned, components);
-  });
+  const std::size_t k = static_cast<std::size_t>(components);
+  std::vector<double> owned(static_cast<std::size_t>(owned_cells()) * k);
+  if (local->option("deterministic") == "1") {
+    // Fixed point in units set by each component's largest |value| over all ranks, so that
+    // owners add the ghosts' integers exactly: the serial engine's sums, bit for bit.
+    std::vector<double> largest(k, 0.0);
+    collective(
+        *this,
+        [&] {
+          const std::size_t n = static_cast<std::size_t>(local->weights_size().particles);
+          for (std::size_t i = 0; i < std::min(values.size(), n * k); ++i)
+            largest[i % k] = std::max(largest[i % k], std::abs(values[i]));
+        },
+        largest);
+    collective(*this, [&] {
+      std::vector<int> exponents(k);
+      for (std::size_t j = 0; j < k; ++j) exponents[j] = fixed_unit_exponent(largest[j]);
+      std::vector<FixedSum> ext(extended.size() * k), mine(owned.size());
+      local->deposit_fixed(components, values, exponents, ext);
+      copy_owned(*this, true, ext.data(), mine.data(), components);
+      halo.reverse_sum(std::span<const FixedSum>(ext), mine, components);
+      for (std::size_t i = 0; i < owned.size(); ++i) owned[i] = from_fixed(mine[i], exponents[i % k]);
+    });
+  } else {
+    collective(*this, [&] {
+      std::vector<double> ext(extended.size() * k);
+      local->deposit(components, values, ext);
+      copy_owned(*this, true, ext.data(), owned.data(), components);
+      halo.reverse_sum(ext, owned, components);
+    });
+  }
   std::copy(owned.begin(), owned.end(), out.begin());
 }
 

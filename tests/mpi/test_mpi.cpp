@@ -152,20 +152,33 @@ vfe_engine* create(const Grid& g, const int64_t lo[3], const int64_t hi[3]) {
   return e;
 }
 
+// This rank's block of a `parts` split, and a distributed engine on it with `options`.
+vfe_engine* create_configured(const Grid& g, std::array<int, 3> parts, const std::string& options, int64_t lo[3],
+                              int64_t hi[3]) {
+  split(g, parts, g_rank, lo, hi);
+  vfe_engine* e = create(g, lo, hi);
+  if (e) {
+    EXPECT_EQ(vfe_configure(e, options.c_str()), VFE_OK) << vfe_last_error(e);
+  }
+  return e;
+}
+
 std::string describe(std::array<int, 3> parts) {
   return std::to_string(parts[0]) + "x" + std::to_string(parts[1]) + "x" + std::to_string(parts[2]);
 }
 
 // Every method, scene, decomposition and periodicity: owned-cell fields equal the serial
-// engine's to 1e-12 of the particle volume per cell.
+// engine's to 1e-12 of the particle volume per cell, and bitwise with deterministic=1.
 TEST(DistributedCartesian, EqualsSerialEngineForEveryMethodAndDecomposition) {
   const Grid g;
   const std::vector<Scene> all = scenes(g);
   const char* const periodics[] = {"none", "xy", "xyz"};
+  for (const char* deterministic : {"0", "1"})
   for (const char* periodic : periodics)
     for (const Scene& scene : all)
       for (const char* method : kMethods) {
-        const std::string options = std::string("method=") + method + " periodic=" + periodic + " threads=1";
+        const std::string options = std::string("method=") + method + " periodic=" + periodic +
+                                    " deterministic=" + deterministic + (deterministic[0] == '1' ? "" : " threads=1");
         const std::vector<double> serial = serial_field(g, scene, options);
         for (const std::array<int, 3>& parts : decompositions()) {
           int64_t lo[3], hi[3];
@@ -181,6 +194,9 @@ TEST(DistributedCartesian, EqualsSerialEngineForEveryMethodAndDecomposition) {
           const Comparison c = compare(g, owned, serial, lo, hi);
           EXPECT_LE(c.max_diff, 1e-12 * scene.largest_volume())
               << scene.name << ", " << options << ", blocks " << describe(parts);
+          if (deterministic[0] == '1') {  // fixed-point sums: the serial field bit for bit
+            EXPECT_EQ(c.unequal_cells, 0) << scene.name << ", " << options << ", blocks " << describe(parts);
+          }
           vfe_report r{};
           ASSERT_EQ(vfe_last_report(e, &r), VFE_OK);
           EXPECT_EQ(r.particles, int64_t(scene.size())) << scene.name << ", " << options;
@@ -189,37 +205,33 @@ TEST(DistributedCartesian, EqualsSerialEngineForEveryMethodAndDecomposition) {
       }
 }
 
-// deterministic=1: The distributed-mesh contract asks for bitwise equality with the serial engine. The engine's sorted
-// sum is deterministic for one mesh, but a cell's sum here is the owner's partial sum plus its
-// neighbours' (another order), so equality is to round-off; the test measures and prints it.
-TEST(DistributedCartesian, DeterministicEqualsSerialToRoundOff) {
+// deterministic=1 with two threads per rank, periodic walls between ranks and a rank its own
+// neighbour: the owner adds its neighbours' fixed-point sums, so every owned cell equals the
+// serial engine's bit for bit. The test prints the figure the closing note quotes.
+TEST(DistributedCartesian, DeterministicIsBitwiseTheSerialField) {
   const Grid g;
-  const Scene scene = scenes(g)[0];
-  for (const char* periodic : {"none", "xy"}) {
-    const std::string options = std::string("method=exact deterministic=1 periodic=") + periodic;
-    const std::vector<double> serial = serial_field(g, scene, options);
-    for (const std::array<int, 3>& parts : decompositions()) {
-      int64_t lo[3], hi[3];
-      split(g, parts, g_rank, lo, hi);
-      vfe_engine* e = create(g, lo, hi);
-      ASSERT_EQ(vfe_configure(e, options.c_str()), VFE_OK);
-      const Local l = owned_particles(scene, g, lo, hi);
-      const vfe_particles p = view(l.centres.data(), l.radii.data(), l.ids.data(), int64_t(l.radii.size()));
-      std::vector<double> owned(size_t(vfe_cell_count(e)));
-      ASSERT_EQ(vfe_compute_particles(e, &p, owned.data()), VFE_OK);
-      const Comparison c = compare(g, owned, serial, lo, hi);
-      if (g_rank == 0)
-        std::printf("deterministic=1 periodic=%s, %d ranks, blocks %s: max |distributed - serial| = %.3g (%.3g of V_p), "
-                    "%lld of %lld cells not bitwise equal\n",
-                    periodic, g_size, describe(parts).c_str(), c.max_diff, c.max_diff / scene.largest_volume(),
-                    static_cast<long long>(c.unequal_cells), static_cast<long long>(serial.size()));
-      EXPECT_LE(c.max_diff, 1e-12 * scene.largest_volume());
-      if (g_size == 1 && std::string(periodic) == "none") {
-        EXPECT_EQ(c.unequal_cells, 0);  // one rank, no ghost cells: the serial engine itself
+  for (const Scene& scene : scenes(g))
+    for (const char* periodic : {"none", "xy", "xyz"}) {
+      const std::string options = std::string("method=pmm deterministic=1 threads=2 periodic=") + periodic;
+      const std::vector<double> serial = serial_field(g, scene, options);
+      for (const std::array<int, 3>& parts : decompositions()) {
+        int64_t lo[3], hi[3];
+        vfe_engine* e = create_configured(g, parts, options, lo, hi);
+        ASSERT_NE(e, nullptr);
+        const Local l = owned_particles(scene, g, lo, hi);
+        const vfe_particles p = view(l.centres.data(), l.radii.data(), l.ids.data(), int64_t(l.radii.size()));
+        std::vector<double> owned(size_t(vfe_cell_count(e)));
+        ASSERT_EQ(vfe_compute_particles(e, &p, owned.data()), VFE_OK);
+        const Comparison c = compare(g, owned, serial, lo, hi);
+        if (g_rank == 0)
+          std::printf("deterministic=1 %s periodic=%s, %d ranks, blocks %s: max |distributed - serial| = %.3g, "
+                      "%lld of %lld cells not bitwise equal\n",
+                      scene.name.c_str(), periodic, g_size, describe(parts).c_str(), c.max_diff,
+                      static_cast<long long>(c.unequal_cells), static_cast<long long>(serial.size()));
+        EXPECT_EQ(c.unequal_cells, 0) << scene.name << ", periodic " << periodic << ", blocks " << describe(parts);
+        vfe_destroy(e);
       }
-      vfe_destroy(e);
     }
-  }
 }
 
 // A compute with larger particles than the last widens the ghost layer on every rank.
@@ -342,7 +354,7 @@ TEST(DistributedCartesian, ShapesEqualSerialEngine) {
   std::vector<int32_t> shape_ids(scene.size());
   for (std::size_t i = 0; i < scene.size(); ++i) shape_ids[i] = int32_t(i % 2);
   // pmm with particle_grid=auto sizes a shape's template per compute (per rank): refused.
-  for (const char* method : {"pmm particle_grid=2000", "direct"}) {
+  for (const char* method : {"pmm particle_grid=2000", "direct", "direct deterministic=1"}) {
     const std::string options = std::string("method=") + method + " periodic=x threads=1";
     std::vector<double> serial(size_t(g.cells[0] * g.cells[1] * g.cells[2]));
     {
@@ -377,8 +389,11 @@ TEST(DistributedCartesian, ShapesEqualSerialEngine) {
       p.shape_ids = my_shapes.data();
       std::vector<double> owned(size_t(vfe_cell_count(e)));
       ASSERT_EQ(vfe_compute_particles(e, &p, owned.data()), VFE_OK) << vfe_last_error(e);
-      EXPECT_LE(compare(g, owned, serial, lo, hi).max_diff, 1e-12 * scene.largest_volume())
-          << method << ", blocks " << describe(parts);
+      const Comparison c = compare(g, owned, serial, lo, hi);
+      EXPECT_LE(c.max_diff, 1e-12 * scene.largest_volume()) << method << ", blocks " << describe(parts);
+      if (std::strstr(method, "deterministic=1")) {  // one fixed-point unit from the shapes' volumes on every rank
+        EXPECT_EQ(c.unequal_cells, 0) << method << ", blocks " << describe(parts);
+      }
       vfe_report r{};
       ASSERT_EQ(vfe_last_report(e, &r), VFE_OK);
       EXPECT_EQ(r.particles, int64_t(scene.size()));
@@ -442,10 +457,12 @@ TEST(DistributedCartesian, BadOptionChangesNothing) {
 
 // deposit (reverse halo sum of k components) and interpolate (forward halo fill) against the
 // serial engine's with weights=1; the void fraction against 1 - Vs/V of the serial field.
-TEST(DistributedCartesian, DepositInterpolateAndVoidFractionEqualSerial) {
+// With deterministic=1 each of them is the serial one bit for bit.
+void check_deposit_interpolate_void_fraction(bool deterministic) {
   const Grid g;
   const Scene scene = scenes(g)[0];
-  const std::string options = "method=gaussian periodic=xz weights=1 alpha_min=0.3";
+  const std::string options =
+      std::string("method=gaussian periodic=xz weights=1 alpha_min=0.3") + (deterministic ? " deterministic=1" : "");
   const int k = 2;
   std::vector<double> values(2 * scene.size()), field(size_t(2 * g.cells[0] * g.cells[1] * g.cells[2]));
   for (std::size_t i = 0; i < scene.size(); ++i) {
@@ -476,9 +493,8 @@ TEST(DistributedCartesian, DepositInterpolateAndVoidFractionEqualSerial) {
   }
   for (const std::array<int, 3>& parts : decompositions()) {
     int64_t lo[3], hi[3];
-    split(g, parts, g_rank, lo, hi);
-    vfe_engine* e = create(g, lo, hi);
-    ASSERT_EQ(vfe_configure(e, options.c_str()), VFE_OK);
+    vfe_engine* e = create_configured(g, parts, options, lo, hi);
+    ASSERT_NE(e, nullptr);
     const Local l = owned_particles(scene, g, lo, hi);
     const std::size_t n = l.radii.size(), cells = size_t(vfe_cell_count(e));
     const vfe_particles p = view(l.centres.data(), l.radii.data(), l.ids.data(), int64_t(n));
@@ -499,13 +515,21 @@ TEST(DistributedCartesian, DepositInterpolateAndVoidFractionEqualSerial) {
       std::vector<double> mine(cells), theirs(serial_eps.size());
       for (std::size_t c = 0; c < cells; ++c) mine[c] = dep[2 * c + j];
       for (std::size_t c = 0; c < theirs.size(); ++c) theirs[c] = serial_deposit[2 * c + j];
-      EXPECT_LE(compare(g, mine, theirs, lo, hi).max_diff, 1e-12 * 17) << "deposit component " << j;
+      const Comparison c = compare(g, mine, theirs, lo, hi);
+      EXPECT_LE(c.max_diff, 1e-12 * 17) << "deposit component " << j;
+      if (deterministic) {
+        EXPECT_EQ(c.unequal_cells, 0) << "deposit component " << j << ", blocks " << describe(parts);
+      }
     }
-    EXPECT_LE(compare(g, eps, serial_eps, lo, hi).max_diff, 1e-12);
+    const Comparison ce = compare(g, eps, serial_eps, lo, hi);
+    EXPECT_LE(ce.max_diff, 1e-12);
+    if (deterministic) {
+      EXPECT_EQ(ce.unequal_cells, 0) << "void fraction, blocks " << describe(parts);
+    }
     double worst = 0;
     for (std::size_t i = 0; i < n; ++i)
       for (int j = 0; j < k; ++j) worst = std::max(worst, std::abs(interp[2 * i + j] - serial_interp[2 * l.index[i] + j]));
-    EXPECT_LE(max_over_ranks(worst), 1e-12) << "interpolate, blocks " << describe(parts);
+    EXPECT_LE(max_over_ranks(worst), deterministic ? 0.0 : 1e-12) << "interpolate, blocks " << describe(parts);
     // Weights name global cells: each particle's (cell, fraction) list equals the serial one.
     int64_t np = 0, ne = 0;
     ASSERT_EQ(vfe_weights_size(e, &np, &ne), VFE_OK);
@@ -529,6 +553,11 @@ TEST(DistributedCartesian, DepositInterpolateAndVoidFractionEqualSerial) {
     EXPECT_LE(max_over_ranks(weight_diff), 1e-12) << "weights, blocks " << describe(parts);
     vfe_destroy(e);
   }
+}
+
+TEST(DistributedCartesian, DepositInterpolateAndVoidFractionEqualSerial) { check_deposit_interpolate_void_fraction(false); }
+TEST(DistributedCartesian, DeterministicDepositInterpolateAndVoidFractionAreBitwiseSerial) {
+  check_deposit_interpolate_void_fraction(true);
 }
 
 // Particles all given on rank 0 reach their owners; computing there equals the serial engine.

@@ -113,6 +113,14 @@ double max_difference(const std::vector<double>& owned, const std::vector<int64_
   return max_over_ranks(worst);
 }
 
+// Owned cells, over all ranks, whose value is not the serial one bit for bit.
+double unequal_cells(const std::vector<double>& owned, const std::vector<int64_t>& cell_ids,
+                     const std::vector<double>& serial) {
+  double count = 0;
+  for (std::size_t c = 0; c < owned.size(); ++c) count += owned[c] != serial[static_cast<std::size_t>(cell_ids[c])];
+  return sum_over_ranks(count);
+}
+
 const char* const kMethods[] = {"direct", "pmm", "exact", "divided", "big_particle", "gaussian", "porous_cube", "auto"};
 
 TEST(DistributedPolyMesh, EqualsSerialEngineForEveryMethod) {
@@ -127,8 +135,9 @@ TEST(DistributedPolyMesh, EqualsSerialEngineForEveryMethod) {
     for (const Scene& scene : scenes(mesh, serial)) {
       const Local l = my_particles(scene, serial, cell_ids);
       ASSERT_EQ(sum_over_ranks(double(l.radii.size())), double(scene.size()));
-      for (const char* method : kMethods) {
-        const std::string options = std::string("method=") + method;
+      for (const char* method : kMethods)
+      for (const char* deterministic : {"0", "1"}) {
+        const std::string options = std::string("method=") + method + " deterministic=" + deterministic;
         serial.configure(options);
         std::vector<double> expected(static_cast<std::size_t>(serial.cell_count()));
         serial.compute(view(scene.centres.data(), scene.radii.data(), scene.ids.data(), int64_t(scene.size())), expected);
@@ -143,9 +152,21 @@ TEST(DistributedPolyMesh, EqualsSerialEngineForEveryMethod) {
         for (double v : field) total += v;
         EXPECT_NEAR(sum_over_ranks(total), scene.volume(), 1e-12 * scene.volume())
             << mesh.name << ", " << scene.name << ", " << method << ": volume not conserved";
+        const double unequal = unequal_cells(field, cell_ids, expected);
+        // deterministic=1 sums in fixed point, so the methods whose deposits do not depend on
+        // a cell's own geometry (point location, cell centres) are the serial field bit for
+        // bit. exact, gaussian and porous_cube integrate over ghost cells rebuilt from the
+        // neighbour's faces in another order, which rounds differently (docs/scaling.md), and
+        // so does auto where it takes exact.
+        const std::string m = method;
+        if (deterministic[0] == '1' && m != "exact" && m != "gaussian" && m != "porous_cube" && m != "auto") {
+          EXPECT_EQ(unequal, 0) << mesh.name << ", " << scene.name << ", " << method << " on " << g_size << " ranks";
+        }
         if (g_rank == 0 && diff > 0)
-          std::printf("[ polymesh ] %s %s %-12s %d ranks: max diff %.1e of V_p\n", mesh.name.c_str(),
-                      scene.name.c_str(), method, g_size, diff / scene.largest_volume());
+          std::printf("[ polymesh ] %s %s %-12s deterministic=%s %d ranks: max diff %.1e of V_p, %.0f cells not "
+                      "bitwise equal\n",
+                      mesh.name.c_str(), scene.name.c_str(), method, deterministic, g_size,
+                      diff / scene.largest_volume(), unequal);
       }
     }
     vfe_destroy(e);

@@ -5,6 +5,7 @@
 #include <vfe/vfe.h>
 
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <memory>
 #include <span>
@@ -16,11 +17,15 @@
 namespace vfe {
 
 /// A uniform Cartesian grid: cells[d] cells of size spacing[d] from origin;
-/// cell (i, j, k) has index i + nx*(j + ny*k).
+/// cell (i, j, k) has index i + nx*(j + ny*k). With first_cell, the grid is the block of
+/// cells [first_cell, first_cell + cells) of the grid from origin: cell (i, j, k)'s lower
+/// corner is origin + (first_cell + (i, j, k)) * spacing, computed as that larger grid
+/// computes it, so a block's deposits equal the larger grid's bit for bit (libvfe_mpi).
 struct CartesianGridSpec {
   std::array<double, 3> origin{0, 0, 0};
   std::array<double, 3> spacing{1, 1, 1};
   std::array<std::int64_t, 3> cells{1, 1, 1};
+  std::array<std::int64_t, 3> first_cell{0, 0, 0};
 };
 
 /// An OpenFOAM polyMesh: the case folder, its constant folder or the polyMesh folder
@@ -100,6 +105,15 @@ struct ParticleView {
 
 using Report = vfe_report;
 
+/// deterministic=1 sums every cell in fixed point, as a whole number of units 2^exponent,
+/// so that a sum does not depend on the order of its terms (threads, ranks, particles).
+__extension__ typedef __int128 FixedSum;
+/// The unit exponent for terms of magnitude at most `largest`: 2^-80 of it.
+inline int fixed_unit_exponent(double largest) {
+  return largest > 0 && std::isfinite(largest) ? std::ilogb(largest) - 80 : 0;
+}
+inline double from_fixed(FixedSum sum, int exponent) { return std::ldexp(static_cast<double>(sum), exponent); }
+
 class VFE_API Engine {
  public:
   /// Builds an engine on a Cartesian grid; throws Error on invalid geometry.
@@ -159,6 +173,24 @@ class VFE_API Engine {
   void weights(std::span<std::int64_t> offsets, std::span<std::int64_t> cells, std::span<double> fractions) const;
   /// out[c*k + j] = sum_p fraction_pc * values[p*k + j] (k = components; overwrites out).
   void deposit(std::int32_t components, std::span<const double> values, std::span<double> out) const;
+  /// deposit() in fixed point: out[c*k + j] in units 2^exponents[j], which must bound the
+  /// values (fixed_unit_exponent of the largest |value| of component j). A distributed
+  /// mesh passes the exponents of all ranks' values, so owners add ghosts' sums exactly.
+  void deposit_fixed(std::int32_t components, std::span<const double> values, std::span<const int> exponents,
+                     std::span<FixedSum> out) const;
+  /// deterministic=1 takes its unit from the largest particle volume of a compute; with a
+  /// volume set here, from the larger of the two (0: none). Every rank of a distributed mesh
+  /// sets the largest_particle_volume of all ranks, so all sum in the same unit.
+  void set_deterministic_volume(double largest_particle_volume);
+  /// The largest volume of the given particles, as a compute measures them (spheres and
+  /// registered shapes; particles a compute would refuse are skipped).
+  double largest_particle_volume(const vfe_particles& particles) const;
+  /// After a compute with deterministic=1: the solid volume per cell in fixed point.
+  struct FixedField {
+    std::span<const FixedSum> sums;
+    int exponent = 0;
+  };
+  FixedField fixed_solid() const;
   /// out[p*k + j] = sum_c fraction_pc * field[c*k + j] / sum_c fraction_pc (0 with no cell).
   void interpolate(std::int32_t components, std::span<const double> cell_field, std::span<double> out) const;
   /// Sends the engine's log to fn (null: back to stderr).

@@ -28,14 +28,15 @@ void big_particle_particle(const Context& ctx, Scratch& s, const Particle& p) {
     const double u = grid.axis_coordinate(d, c[d]), a = p.radius / grid.spacing()[d];
     if (!(std::abs(u) + a < 0x1p40)) far = true;
     if (far) break;
-    g0[d] = static_cast<std::int64_t>(std::ceil(u - a - 0.5));
-    const std::int64_t g1 = static_cast<std::int64_t>(std::floor(u + a - 0.5));
+    // In local cells (axis_coordinate is global).
+    g0[d] = static_cast<std::int64_t>(std::ceil(u - a - 0.5)) - grid.first(d);
+    const std::int64_t g1 = static_cast<std::int64_t>(std::floor(u + a - 0.5)) - grid.first(d);
     // Cell centres tested: bounded before anything is sized by them.
     check_footprint(p.index, double(g1 - g0[d] + 1), std::pow(double(g1 - g0[d] + 1), 3.0));
     m[d] = static_cast<int>(std::max<std::int64_t>(g1 - g0[d] + 1, 0));
     s.nodes[d].resize(static_cast<std::size_t>(m[d]));
     for (int i = 0; i < m[d]; ++i)
-      s.nodes[d][i] = grid.origin()[d] + (double(g0[d] + i) + 0.5) * grid.spacing()[d];
+      s.nodes[d][i] = grid.centre(d, g0[d] + i);
   }
   bool flagged = false;
   if (far) {  // absurdly far from the mesh: one point

@@ -10,13 +10,13 @@ void window_nodes(const CartesianGrid& grid, const Window& w, int d, std::vector
   const std::int64_t n = grid.cells()[d];
   nodes.resize(static_cast<std::size_t>(w.m[d] + 1));
   for (std::int64_t i = 0; i <= w.m[d]; ++i) {
-    const std::int64_t g = w.lo[d] + i;
+    const std::int64_t g = w.lo[d] + i, global = g + grid.first(d);
     if (grid.periodic(d)) {
-      nodes[i] = double(g);
+      nodes[i] = double(global);
       continue;
     }
     nodes[i] = g < 0 ? -std::numeric_limits<double>::infinity()
-                     : (g > n ? std::numeric_limits<double>::infinity() : double(g));
+                     : (g > n ? std::numeric_limits<double>::infinity() : double(global));
   }
 }
 
@@ -94,7 +94,7 @@ void deposit_points(const Context& ctx, Scratch& s, const Particle& p, const ker
   const Eigen::Vector3d inv_h = grid.spacing().cwiseInverse();
   const Eigen::Matrix3d R = rotation ? *rotation : particle_rotation(ctx.opts, p);
   Eigen::Vector3d base;
-  for (int d = 0; d < 3; ++d) base[d] = grid.axis_coordinate(d, c[d]) - double(w.lo[d]);
+  for (int d = 0; d < 3; ++d) base[d] = grid.axis_coordinate(d, c[d]) - double(w.lo[d] + grid.first(d));
   if (base.cwiseAbs().maxCoeff() > 0x1p40) {  // absurdly far from the mesh: one point
     bool flagged = false;
     outside(ctx, s, p, p.volume, grid.nearest(c), flagged, policy);

@@ -218,7 +218,8 @@ inline Window make_window(const CartesianGrid& grid, const Eigen::Vector3d& c, c
   return w;
 }
 
-/// Node coordinates of a window's cells along axis d in cell units (cell g spans [g, g+1]),
+/// Node coordinates of a window's cells along axis d in the global grid's cell units
+/// (local cell g spans [first + g, first + g + 1], as axis_coordinate measures),
 /// m[d] + 1 values; the virtual cell below the mesh starts at -infinity and the one above
 /// ends at +infinity.
 void window_nodes(const CartesianGrid& grid, const Window& w, int d, std::vector<double>& nodes);
@@ -298,15 +299,22 @@ bool pmm_sphere_quick(const Context& ctx, Scratch& s, const Particle& p, Sink&& 
   const CartesianGrid& grid = ctx.grid;
   if (!ctx.opts.fast_path || grid.periodic_mask()) return false;
   const kernels::ParticleTemplate& t = ctx.template_for(p);
-  // make_window's cells, for a window inside the grid: there the floor of each bound's
-  // coordinate (the same expression as axis_index's) is its truncation and no clamp acts.
+  // make_window's cells, for a window inside the grid: there no clamp acts, and on a grid
+  // from the origin (not a block) the floor of each bound's coordinate (axis_index's) is
+  // its truncation.
   const double half = p.radius * t.reach;
   Window w;
   for (int d = 0; d < 3; ++d) {
     const double lo = grid.axis_coordinate(d, p.centre[d] - half), hi = grid.axis_coordinate(d, p.centre[d] + half);
-    if (!(lo >= 0 && hi < double(grid.cells()[d]))) return false;  // reaches beyond the grid (or NaN)
-    w.lo[d] = static_cast<std::int64_t>(lo);
-    w.m[d] = static_cast<std::int64_t>(hi) - w.lo[d] + 1;
+    const double first = double(grid.first(d));
+    if (!(lo >= first && hi < first + double(grid.cells()[d]))) return false;  // reaches beyond the grid (or NaN)
+    if (first == 0) {
+      w.lo[d] = static_cast<std::int64_t>(lo);
+      w.m[d] = static_cast<std::int64_t>(hi) - w.lo[d] + 1;
+    } else {
+      w.lo[d] = CartesianGrid::fast_floor(lo) - grid.first(d);
+      w.m[d] = CartesianGrid::fast_floor(hi) - grid.first(d) - w.lo[d] + 1;
+    }
   }
   if (w.size() == 1) {
     s.count_grid(static_cast<std::int64_t>(t.size()));
@@ -316,7 +324,7 @@ bool pmm_sphere_quick(const Context& ctx, Scratch& s, const Particle& p, Sink&& 
   }
   if (t.split_points.empty() || w.m[0] > 2 || w.m[1] > 2 || w.m[2] > 2) return false;
   Eigen::Vector3d base;
-  for (int d = 0; d < 3; ++d) base[d] = grid.axis_coordinate(d, p.centre[d]) - double(w.lo[d]);
+  for (int d = 0; d < 3; ++d) base[d] = grid.axis_coordinate(d, p.centre[d]) - double(w.lo[d] + grid.first(d));
   float rows[9];
   if (!deposit_by_octants(ctx, s, p, t, particle_rotation_rows(ctx.opts, p, rows), w, base, sink)) return false;
   s.count_grid(static_cast<std::int64_t>(t.size()));

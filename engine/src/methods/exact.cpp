@@ -38,7 +38,7 @@ void exact_particle(const Context& ctx, Scratch& s, const Particle& p) {
   for (int d = 0; d < 3; ++d) {
     m[d] = static_cast<int>(hi[d] - lo[d] + 1);
     s.nodes[d].resize(m[d] + 1);
-    for (int i = 0; i <= m[d]; ++i) s.nodes[d][i] = grid.origin()[d] + double(lo[d] + i) * grid.spacing()[d];
+    for (int i = 0; i <= m[d]; ++i) s.nodes[d][i] = grid.node(d, lo[d] + i);
   }
   s.sub_elements += std::int64_t(m[0]) * m[1] * m[2];
   double inside = 0;

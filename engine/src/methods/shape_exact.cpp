@@ -146,7 +146,7 @@ void exact_any_particle(const Context& ctx, Scratch& s, const Particle& p) {
   if (empty) return beyond(p.volume);
   check_block(p, lo, hi);
   const double inside = block_overlaps(
-      b, s, lo, hi, [&](int d, std::int64_t g) { return grid.origin()[d] + double(g) * grid.spacing()[d]; },
+      b, s, lo, hi, [&](int d, std::int64_t g) { return grid.node(d, g); },
       [&](std::int64_t i, std::int64_t j, std::int64_t k) {
         return grid.index(grid.cell_axis(0, i), grid.cell_axis(1, j), grid.cell_axis(2, k));
       });

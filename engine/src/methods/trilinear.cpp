@@ -18,8 +18,9 @@ void trilinear_particle(const Context& ctx, Scratch& s, const Particle& p) {
     const double bound = 0x1p60;  // far beyond any mesh: still representable
     axis[d] = kernels::trilinear_axis(std::clamp(u, -bound, bound));
     const std::int64_t n = grid.cells()[d];
-    const std::int64_t a = std::clamp<std::int64_t>(axis[d].first, -1, n);
-    const std::int64_t b = std::clamp<std::int64_t>(axis[d].first + 1, -1, n);
+    const std::int64_t local = axis[d].first - grid.first(d);  // axis_coordinate is global
+    const std::int64_t a = std::clamp<std::int64_t>(local, -1, n);
+    const std::int64_t b = std::clamp<std::int64_t>(local + 1, -1, n);
     w.lo[d] = a;
     w.m[d] = b - a + 1;
     s.axis[d].assign(static_cast<std::size_t>(w.m[d]), 0.0);
