@@ -241,7 +241,8 @@ double footprint_reach(const DistributedEngine& e, double max_radius, double max
   extra_cells = 0;
   if (method == "direct")
     reach = 0;
-  else if (method == "pmm" || method == "exact" || method == "divided" || method == "big_particle")
+  else if (method == "pmm" || method == "exact" || method == "divided" || method == "big_particle" ||
+           method == "auto")  // auto: per sphere the fast path, pmm or exact, all within the ball
     reach = max_radius;
   else if (method == "gaussian")
     reach = 6.0 * std::stod(e.local->option("sigma")) * max_radius;  // 3 sigma, sigma in diameters

@@ -52,7 +52,8 @@ std::vector<Scene> scenes(const Grid& g) {
           make_scene("large particles", g, 12, 0.0012, 0.0019, {0, 0, 0}, {1, 1, 1}, 3)};
 }
 
-const char* const kMethods[] = {"direct", "pmm", "exact", "divided", "gaussian", "porous_cube", "big_particle", "trilinear"};
+const char* const kMethods[] = {"direct",      "pmm",          "exact",     "divided", "gaussian",
+                                "porous_cube", "big_particle", "trilinear", "auto"};
 
 // Blocks of a px x py x pz split (uneven where the cells do not divide), rank r's block.
 void split(const Grid& g, std::array<int, 3> parts, int rank, int64_t lo[3], int64_t hi[3]) {
