@@ -60,12 +60,12 @@ echo "install: find_package(vfe CONFIG) hosts in C and C++ (vfe/engine.hpp) buil
 # Hidden symbols: every vfe symbol libvfe.so exports is one its installed headers declare
 # VFE_API (C functions, facade classes and functions); the standard-library templates it
 # instantiates are exported too, as usual.
-headers=("$prefix/include/vfe/"*.h "$prefix/include/vfe/"*.hpp)
+headers=("$prefix/include/vfe/"*.h "$prefix/include/vfe/"*.hpp "$prefix/include/vfe/detail/"*.hpp)
 declared="$(cat "${headers[@]}" | tr '\n' ' ' | grep -oE 'VFE_API [^;{]*' |
   sed -E 's/^VFE_API +//; /\(/{s/ *\(.*//; s/.*[ *&]//; b}; s/[ :].*//')"
 exported="$(nm -D --defined-only "$libdir/libvfe.so" | awk '{print $3}' | grep -E '^vfe_' || true)
 $(nm -D --defined-only -C "$libdir/libvfe.so" | cut -d' ' -f3- |
-  sed -nE 's/^((typeinfo|typeinfo name|vtable) for )?vfe::([A-Za-z_0-9]+).*/\3/p')"
+  sed -nE 's/^((typeinfo|typeinfo name|vtable) for )?vfe::(detail::)?([A-Za-z_0-9]+).*/\4/p')"
 for name in $(sort -u <<<"$exported"); do
   grep -qx "$name" <<<"$declared" || fail "libvfe.so exports $name, which no installed header declares VFE_API"
 done

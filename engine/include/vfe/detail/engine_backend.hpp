@@ -1,7 +1,8 @@
 // What a vfe_engine handle runs its calls on: libvfe's own engine on one mesh, or a backend
 // another library of this tree supplies (libvfe_mpi's engine spread over MPI ranks), so that
-// such an engine is an ordinary vfe_engine to its host. Built-tree only: not installed, not
-// part of the C API; libvfe stays free of what a backend needs (MPI).
+// such an engine is an ordinary vfe_engine to its host. Installed with libvfe because libvfe
+// exports it, but not part of the C API or a stable interface; libvfe stays free of what a
+// backend needs (MPI).
 #pragma once
 
 #include <vfe/engine.hpp>
