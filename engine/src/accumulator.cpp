@@ -191,12 +191,12 @@ void Accumulator::fixed_sum(tbb::task_arena& arena) {
   fixed_valid_ = true;
 }
 
-void Accumulator::reduce_blocks(tbb::task_arena& arena, bool deterministic) {
+void Accumulator::reduce_blocks(tbb::task_arena& arena) {
   if (plan_.fixed_point) {
     fixed_sum(arena);
     return;
   }
-  if (deterministic || plan_.strategy == Accumulation::sorted) {
+  if (plan_.strategy == Accumulation::sorted) {
     sorted_sum(arena);
     return;
   }
@@ -226,7 +226,7 @@ void Accumulator::reduce_blocks(tbb::task_arena& arena, bool deterministic) {
   merge_private(arena, false);
 }
 
-void Accumulator::apply_incremental(tbb::task_arena& arena, bool deterministic) {
+void Accumulator::apply_incremental(tbb::task_arena& arena) {
   // Subtract the moved particles' old deposits, add their new ones.
   const std::int64_t nblocks = static_cast<std::int64_t>(next_.size());
   if (reuse_n_ == 0) {
@@ -250,16 +250,13 @@ void Accumulator::apply_incremental(tbb::task_arena& arena, bool deterministic) 
       fixed_exponent_ = plan_.unit_exponent;
     }
     const int e = fixed_exponent_;
-    fixed_marks_.assign(static_cast<std::size_t>(cells_ + 1), 0);
+    // The cells the moved particles touch, repeats and all: converting a cell twice is
+    // harmless, and a per-cell mark would cost a pass over the mesh per update.
     std::vector<std::int64_t> changed;
     for (std::int64_t b = 0; b < nblocks; ++b)
       apply_block(b, [&](const Deposit& d) {
-        const auto c = static_cast<std::size_t>(d.cell);
-        if (!fixed_marks_[c] && d.cell != cells_) {
-          fixed_marks_[c] = 1;
-          changed.push_back(d.cell);
-        }
-        fixed_[c] += to_fixed(d.volume, e);
+        if (d.cell != cells_) changed.push_back(d.cell);
+        fixed_[static_cast<std::size_t>(d.cell)] += to_fixed(d.volume, e);
       });
     convert_fixed(arena, reuse_n_ == 0 ? nullptr : &changed);
     fixed_valid_ = true;
@@ -267,7 +264,7 @@ void Accumulator::apply_incremental(tbb::task_arena& arena, bool deterministic) 
   }
   fixed_valid_ = false;
   double dropped = 0;
-  if (deterministic || plan_.strategy == Accumulation::sorted) {  // block order: the same sums for any thread count
+  if (plan_.strategy == Accumulation::sorted) {  // block order: the same sums for any thread count
     for (std::int64_t b = 0; b < nblocks; ++b)
       apply_block(b, [&](const Deposit& d) {
         if (d.cell == cells_)
@@ -305,12 +302,12 @@ void Accumulator::apply_incremental(tbb::task_arena& arena, bool deterministic) 
   dropped_ += dropped;
 }
 
-void Accumulator::commit(tbb::task_arena& arena, bool deterministic) {
+void Accumulator::commit(tbb::task_arena& arena) {
   const std::int64_t nblocks = static_cast<std::int64_t>(next_.size());
   moved_list_.clear();
   if (!plan_.fixed_point) fixed_valid_ = false;
   if (plan_.incremental) {
-    apply_incremental(arena, deterministic);
+    apply_incremental(arena);
     blocks_.resize(static_cast<std::size_t>(nblocks));
     moved_ = 0;
     for (std::int64_t b = 0; b < nblocks; ++b) {
@@ -323,7 +320,7 @@ void Accumulator::commit(tbb::task_arena& arena, bool deterministic) {
     kept_ = reusable_ = true;
     kept_n_ = n_;
   } else if (plan_.uses_blocks()) {
-    reduce_blocks(arena, deterministic);
+    reduce_blocks(arena);
     moved_ = n_;
     if (plan_.keep_deposits) {
       blocks_.swap(next_);

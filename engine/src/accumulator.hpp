@@ -124,7 +124,7 @@ class Accumulator {
   /// Drops phase 1's results (a check after phase 1 failed).
   void abandon();
   /// Phase 2: makes phase 1's deposits the committed field.
-  void commit(tbb::task_arena& arena, bool deterministic);
+  void commit(tbb::task_arena& arena);
 
  private:
   struct PrivateField {
@@ -139,12 +139,12 @@ class Accumulator {
   }
   /// Adds the private fields into solid_ (cleared first unless onto_solid) and zeroes them.
   void merge_private(tbb::task_arena& arena, bool onto_solid);
-  void reduce_blocks(tbb::task_arena& arena, bool deterministic);
+  void reduce_blocks(tbb::task_arena& arena);
   void sorted_sum(tbb::task_arena& arena);
   /// Makes solid_ (and dropped_) the doubles of fixed_ at the cells listed, or every cell.
   void convert_fixed(tbb::task_arena& arena, const std::vector<std::int64_t>* cells);
   void fixed_sum(tbb::task_arena& arena);
-  void apply_incremental(tbb::task_arena& arena, bool deterministic);
+  void apply_incremental(tbb::task_arena& arena);
   /// Clears the committed field where it may be non-zero.
   void clear_solid();
 
@@ -177,7 +177,7 @@ class Accumulator {
   std::vector<FixedSum> fixed_;
   bool fixed_valid_ = false;
   int fixed_exponent_ = 0;
-  std::vector<std::uint8_t> fixed_marks_;  // touched_only, incremental: cells listed once
+  std::vector<std::uint8_t> fixed_marks_;  // touched_only: cells listed once
 
   // sorted: (cell, position) keys and values.
   std::vector<std::pair<std::int64_t, std::int64_t>> sort_keys_;

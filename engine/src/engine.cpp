@@ -601,7 +601,7 @@ struct Engine::Impl {
       throw;
     }
     try {
-      acc.commit(*arena, opts.deterministic);
+      acc.commit(*arena);
     } catch (...) {  // the field may be half written: the next compute starts afresh
       acc.invalidate_kept();
       have_field = weights_kept = false;

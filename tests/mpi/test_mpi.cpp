@@ -268,9 +268,8 @@ TEST(DistributedCartesian, GhostLayerWidensForLargerParticles) {
 TEST(DistributedCartesian, ParticleOnTheWrongRankIsRefusedEverywhere) {
   const Grid g;
   int64_t lo[3], hi[3];
-  split(g, {g_size, 1, 1}, g_rank, lo, hi);
-  vfe_engine* e = create(g, lo, hi);
-  ASSERT_EQ(vfe_configure(e, "method=exact"), VFE_OK);
+  vfe_engine* e = create_configured(g, {g_size, 1, 1}, "method=exact", lo, hi);
+  ASSERT_NE(e, nullptr);
   // Rank 0 passes a particle in the last cell along x (owned by the last rank); with one rank
   // every particle is its own, so it passes none and the compute succeeds.
   double centre[3] = {g.origin[0] + (double(g.cells[0]) - 0.5) * g.spacing[0], g.origin[1] + 0.005, g.origin[2] + 0.004};
