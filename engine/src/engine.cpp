@@ -13,6 +13,7 @@
 #include "options.hpp"
 #include "particle_grid.hpp"
 #include "particle_arrays.hpp"
+#include "sphere_pass.hpp"
 #include "shape_spec.hpp"
 #include "smoothing.hpp"
 
@@ -307,7 +308,7 @@ struct Engine::Impl {
     return b;
   }
 
-  static constexpr std::int64_t kChunk = 256;  ///< particles checked, then deposited, at a time
+  static constexpr std::int64_t kChunk = detail::kSphereChunk;  ///< spheres checked (and deposited) at a time
 
   /// The particles' validation: body(range, acc) checks a range of particles into acc. The
   /// reduction tree is fixed (blocks of 4096, halved), so the sums are the same for any
@@ -349,9 +350,8 @@ struct Engine::Impl {
     const bool given = opts.orientation == Orientation::given;
     if (!pa.shape_ids && !given) {  // spheres only: the tight loop of the fused passes
       const Validation v = reduce_particles(pa.n, [&](const tbb::blocked_range<std::int64_t>& r, Validation& acc) {
-        double volumes[kChunk];
         for (std::int64_t first = r.begin(); first < r.end(); first += kChunk)
-          detail::check_spheres(pa, first, std::min(kChunk, r.end() - first), bounds, acc, volumes);
+          detail::check_sphere_chunk(pa, first, std::min(kChunk, r.end() - first), bounds, acc);
       });
       check_validation(pa, v);
       return v;
@@ -401,63 +401,58 @@ struct Engine::Impl {
   /// direct on a Cartesian grid with spheres and private fields: validation, locate and the
   /// add in one pass over the particles, so direct costs little more than reading them.
   bool fuses_direct(const ParticleArrays& pa, const detail::AccumulationPlan& pl) const {
+    constexpr std::int64_t kAxisLimit = std::int64_t(1) << 31;  // sphere_pass converts through int32
     return opts.method == Method::direct && mesh.kind() == MeshKind::cartesian && !mesh.cartesian()->is_block() &&
            !pa.shape_ids &&
            opts.orientation != Orientation::given && pl.strategy == Accumulation::privatised && !pl.uses_blocks() &&
-           !pl.touched_only;
+           !pl.touched_only && std::ranges::all_of(mesh.cartesian()->cells(), [](std::int64_t n) { return n < kAxisLimit; });
   }
 
   /// The fused pass: the same Validation as validate() (the same tree, the same particles in
-  /// order) and the same cells as direct_particle; a particle whose centre lies outside the
-  /// grid goes through the driver (the outside policy). Throws validate()'s errors, and the
-  /// accumulator drops what the pass deposited.
-  Validation fused_direct(const ParticleArrays& pa, const detail::AccumulationPlan& pl) {
-    return mesh.periodic() ? fused_direct<true>(pa, pl) : fused_direct<false>(pa, pl);
-  }
-  template <bool kPeriodic>
+  /// order) and the same cells as direct_particle. A sphere whose centre lies outside the
+  /// grid goes through the driver (the outside policy); on a periodic grid every sphere is
+  /// wrapped first, as the driver does. Throws validate()'s errors, and the accumulator
+  /// drops what the pass deposited.
   Validation fused_direct(const ParticleArrays& pa, const detail::AccumulationPlan& pl) {
     const CartesianGrid& grid = *mesh.cartesian();
     const detail::Context ctx{detail::MethodContext{opts, detail::TemplateBank{}, divided}, grid};
     const detail::SphereBounds bounds = sphere_bounds();
+    const bool periodic = mesh.periodic() != 0;
     return acc.deposit_private(pl, pa.n, [&](auto&& thread_field) {
       const Validation v = reduce_particles(pa.n, [&](const tbb::blocked_range<std::int64_t>& r, Validation& a) {
         Scratch& s = scratch.local();
         double* const field = thread_field();
-        // Everything the deposit loop reads, in locals: the stores into field could alias
-        // any double behind a reference, which would make the compiler reload it each time.
-        const char* const centres = pa.centres;
-        const std::int64_t cs = pa.centres_stride;
-        const double o0 = grid.origin()[0], o1 = grid.origin()[1], o2 = grid.origin()[2];
-        const double i0 = 1.0 / grid.spacing()[0], i1 = 1.0 / grid.spacing()[1], i2 = 1.0 / grid.spacing()[2];
-        const double n0 = double(grid.cells()[0]), n1 = double(grid.cells()[1]), n2 = double(grid.cells()[2]);
-        const std::int64_t nx = grid.cells()[0], nxy = nx * grid.cells()[1];
-        // Chunks, two loops each: the checks, then the deposits, which read the chunk again
-        // from L1. One loop doing both holds more values than x86-64 has registers.
-        double volumes[kChunk];
+        detail::CentreGrid g{};
+        for (int d = 0; d < 3; ++d) {
+          g.origin[d] = grid.origin()[d];
+          g.inv_spacing[d] = 1.0 / grid.spacing()[d];
+          g.cells[d] = double(grid.cells()[d]);
+        }
+        g.strides[0] = double(grid.cells()[0]);
+        g.strides[1] = double(grid.cells()[0] * grid.cells()[1]);
+        g.field = field;
+        auto by_driver = [&](std::int64_t p) {
+          s.deposits.clear();
+          detail::direct_particle(ctx, s, particle(pa, p));
+          for (const Deposit& d : s.deposits) field[d.cell] += d.volume;
+        };
+        std::int64_t left[kChunk];
         for (std::int64_t first = r.begin(); first < r.end(); first += kChunk) {
           const std::int64_t count = std::min(kChunk, r.end() - first);
-          detail::check_spheres(pa, first, count, bounds, a, volumes);
-          for (std::int64_t k = 0; k < count; ++k) {
-            const double* c = reinterpret_cast<const double*>(centres + (first + k) * cs);
-            const double vol = volumes[k];
-            if (vol == 0) continue;  // a bad particle: the compute fails
-            ++s.sub_elements;
-            double x0 = c[0], x1 = c[1], x2 = c[2];
-            if constexpr (kPeriodic) {
-              const Eigen::Vector3d w = mesh.wrap(Eigen::Vector3d(x0, x1, x2));
-              x0 = w[0], x1 = w[1], x2 = w[2];
+          if (!periodic) {
+            const std::int64_t nleft = detail::deposit_sphere_chunk(pa, first, count, bounds, g, a, left);
+            s.sub_elements += count - nleft;  // the driver counts the others
+            for (std::int64_t i = 0; i < nleft; ++i) by_driver(left[i]);
+            continue;
+          }
+          if (!detail::check_sphere_chunk(pa, first, count, bounds, a)) continue;  // the compute fails
+          for (std::int64_t p = first; p < first + count; ++p) {
+            if (const std::int64_t cell = grid.locate(mesh.wrap(pa.centre(p))); cell >= 0) {
+              field[cell] += sphere_volume(pa.radius(p));
+              ++s.sub_elements;
+            } else {
+              by_driver(p);
             }
-            // grid.locate: floor((x - o) / h) in [0, n) per axis; on [0, n) floor is truncation.
-            const double t0 = (x0 - o0) * i0, t1 = (x1 - o1) * i1, t2 = (x2 - o2) * i2;
-            if ((t0 >= 0) & (t0 < n0) & (t1 >= 0) & (t1 < n1) & (t2 >= 0) & (t2 < n2)) [[likely]] {
-              field[static_cast<std::int64_t>(t0) + nx * static_cast<std::int64_t>(t1) +
-                    nxy * static_cast<std::int64_t>(t2)] += vol;
-              continue;
-            }
-            s.deposits.clear();
-            --s.sub_elements;  // the driver counts the particle again
-            detail::direct_particle(ctx, s, particle(pa, first + k));
-            for (const Deposit& d : s.deposits) field[d.cell] += d.volume;
           }
         }
       });

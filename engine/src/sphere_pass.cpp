@@ -1,0 +1,166 @@
+#include "sphere_pass.hpp"
+
+#include <algorithm>
+#include <cstring>
+#include <limits>
+#include <numbers>
+
+namespace vfe::detail {
+namespace {
+
+// GCC's vector types: one source for both builds, four particles per step as two SSE2
+// registers or one AVX register, the same operations on every lane either way.
+using v4d = double __attribute__((vector_size(32)));
+using v4l = std::int64_t __attribute__((vector_size(32)));
+using v4i = std::int32_t __attribute__((vector_size(16)));
+
+constexpr double k4pi3 = 4.0 / 3.0 * std::numbers::pi;  // sphere_volume's factor, the same rounding
+
+inline double read_double(const char* p) {
+  double x;
+  std::memcpy(&x, p, sizeof x);
+  return x;
+}
+
+/// The chunk again one by one, after the fast loop met a bad particle: a.first_bad, and
+/// the sums over the good ones.
+void recheck_spheres(const ParticleArrays& pa, std::int64_t first, std::int64_t count, const SphereBounds& b,
+                     Validation& a) {
+  for (std::int64_t p = first; p < first + count; ++p) {
+    const double* c = reinterpret_cast<const double*>(pa.centres + p * pa.centres_stride);
+    const double r = pa.radius(p);
+    const double v = k4pi3 * r * r * r;
+    if (!particle_values_ok(c, r, v)) {
+      a.first_bad = std::min(a.first_bad, p);
+      continue;
+    }
+    a.volume += v;
+    a.d_min = std::min(a.d_min, 2 * r);
+    a.d_max = std::max(a.d_max, 2 * r);
+    a.beyond += b.beyond(c, r);
+  }
+}
+
+/// The pass over one chunk. kPacked: centres 24 and radii 8 bytes apart (the offsets are
+/// constants and one prefetch serves four particles). kDeposit: also add each volume into
+/// g's cell. Returns how many spheres it left (in left), or -1 for a chunk holding a bad
+/// one. Every value the loop reads is a local: the adds into the field could alias
+/// any double behind a pointer, which would make the compiler reload it each time.
+template <bool kPacked, bool kDeposit>
+[[gnu::always_inline]] inline std::int64_t sphere_pass(const ParticleArrays& pa, std::int64_t first,
+                                                       std::int64_t count, const SphereBounds& b, const CentreGrid* g,
+                                                       Validation& a, std::int64_t* left) {
+  const std::int64_t cs = kPacked ? 24 : pa.centres_stride, rs = kPacked ? 8 : pa.radii_stride;
+  const char* const cc = pa.centres + first * cs;
+  const char* const rr = pa.radii + first * rs;
+  const double lo0 = b.lo[0], lo1 = b.lo[1], lo2 = b.lo[2], hi0 = b.hi[0], hi1 = b.hi[1], hi2 = b.hi[2];
+  double o0 = 0, o1 = 0, o2 = 0, i0 = 0, i1 = 0, i2 = 0, n0 = 0, n1 = 0, n2 = 0, s0 = 0, s1 = 0;
+  double* field = nullptr;
+  if constexpr (kDeposit) {
+    o0 = g->origin[0], o1 = g->origin[1], o2 = g->origin[2];
+    i0 = g->inv_spacing[0], i1 = g->inv_spacing[1], i2 = g->inv_spacing[2];
+    n0 = g->cells[0], n1 = g->cells[1], n2 = g->cells[2];
+    s0 = g->strides[0], s1 = g->strides[1];
+    field = g->field;
+  }
+  const v4l magnitude = v4l{} + std::numeric_limits<std::int64_t>::max();  // every bit but the sign
+
+  v4l ok = v4l{} - 1;
+  v4l beyond = v4l{};
+  v4d r_min = v4d{} + std::numeric_limits<double>::infinity(), r_max = v4d{};
+  double volume = a.volume;
+  std::int64_t nleft = 0;
+
+  // Particles k .. k + lanes - 1 (lanes <= 4); the lanes beyond repeat the last particle,
+  // which changes neither the validity nor the radii's extremes, and count for nothing else.
+  auto step = [&](std::int64_t k, int lanes) __attribute__((always_inline)) {
+    const std::int64_t j1 = std::min(1, lanes - 1), j2 = std::min(2, lanes - 1), j3 = std::min(3, lanes - 1);
+    const char* c = cc + k * cs;
+    const char* r = rr + k * rs;
+    if constexpr (kPacked) {
+      // This machine's hardware prefetcher does not follow the particle stream: ask for
+      // the particles 16 ahead (past the end is harmless).
+      __builtin_prefetch(c + 16 * 24);
+      __builtin_prefetch(c + 16 * 24 + 64);
+      __builtin_prefetch(r + 16 * 8);
+    } else {
+      for (int l = 0; l < 4; ++l) {
+        __builtin_prefetch(c + (16 + l) * cs);
+        __builtin_prefetch(r + (16 + l) * rs);
+      }
+    }
+    const v4d x = {read_double(c), read_double(c + j1 * cs), read_double(c + j2 * cs), read_double(c + j3 * cs)};
+    const v4d y = {read_double(c + 8), read_double(c + j1 * cs + 8), read_double(c + j2 * cs + 8),
+                   read_double(c + j3 * cs + 8)};
+    const v4d z = {read_double(c + 16), read_double(c + j1 * cs + 16), read_double(c + j2 * cs + 16),
+                   read_double(c + j3 * cs + 16)};
+    const v4d rad = {read_double(r), read_double(r + j1 * rs), read_double(r + j2 * rs), read_double(r + j3 * rs)};
+    const v4l valid = {-1, lanes > 1 ? -1 : 0, lanes > 2 ? -1 : 0, lanes > 3 ? -1 : 0};
+    const v4d v = k4pi3 * rad * rad * rad;
+    // particle_values_ok on four lanes (r > 0 follows from v >= the smallest normal).
+    const v4d ax = (v4d)((v4l)x & magnitude), ay = (v4d)((v4l)y & magnitude), az = (v4d)((v4l)z & magnitude);
+    ok &= (ax + ay + az + rad < 1e300) & (v >= std::numeric_limits<double>::min()) & (v < 1e300);
+    r_min = rad < r_min ? rad : r_min;
+    r_max = rad > r_max ? rad : r_max;
+    beyond -= valid & ((x - rad < lo0) | (x + rad > hi0) | (y - rad < lo1) | (y + rad > hi1) | (z - rad < lo2) |
+                       (z + rad > hi2));
+    for (int l = 0; l < lanes; ++l) volume += v[l];  // in particle order, as validate sums
+    if constexpr (kDeposit) {
+      const v4d t0 = (x - o0) * i0, t1 = (y - o1) * i1, t2 = (z - o2) * i2;
+      const v4l in = valid & (t0 >= 0) & (t0 < n0) & (t1 >= 0) & (t1 < n1) & (t2 >= 0) & (t2 < n2);
+      // On [0, n) floor is truncation; lanes outside convert 0 instead.
+      const v4d f0 = __builtin_convertvector(__builtin_convertvector((in ? t0 : v4d{}), v4i), v4d);
+      const v4d f1 = __builtin_convertvector(__builtin_convertvector((in ? t1 : v4d{}), v4i), v4d);
+      const v4d f2 = __builtin_convertvector(__builtin_convertvector((in ? t2 : v4d{}), v4i), v4d);
+      const v4d cell = in ? f0 + s0 * f1 + s1 * f2 : v4d{} - 1;
+      for (int l = 0; l < lanes; ++l) {
+        const auto at = static_cast<std::int64_t>(cell[l]);
+        if (at >= 0) [[likely]]
+          field[at] += v[l];
+        else
+          left[nleft++] = first + k + l;
+      }
+    }
+  };
+  std::int64_t k = 0;
+  for (; k + 4 <= count; k += 4) step(k, 4);
+  if (k < count) step(k, static_cast<int>(count - k));
+
+  if ((ok[0] & ok[1] & ok[2] & ok[3]) == 0) [[unlikely]] {
+    recheck_spheres(pa, first, count, b, a);
+    return -1;
+  }
+  a.volume = volume;
+  a.d_min = std::min(a.d_min, 2 * std::min(std::min(r_min[0], r_min[1]), std::min(r_min[2], r_min[3])));
+  a.d_max = std::max(a.d_max, 2 * std::max(std::max(r_max[0], r_max[1]), std::max(r_max[2], r_max[3])));
+  a.beyond += beyond[0] + beyond[1] + beyond[2] + beyond[3];
+  return nleft;
+}
+
+bool packed(const ParticleArrays& pa) { return pa.centres_stride == 24 && pa.radii_stride == 8; }
+
+}  // namespace
+
+// Built for AVX2 + FMA as well as the baseline; the loader picks the one the CPU runs.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(__SANITIZE_ADDRESS__)
+#define VFE_SPHERE_PASS_CLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
+#else
+#define VFE_SPHERE_PASS_CLONES
+#endif
+
+VFE_SPHERE_PASS_CLONES
+bool check_sphere_chunk(const ParticleArrays& pa, std::int64_t first, std::int64_t count, const SphereBounds& b,
+                        Validation& a) {
+  return (packed(pa) ? sphere_pass<true, false>(pa, first, count, b, nullptr, a, nullptr)
+                     : sphere_pass<false, false>(pa, first, count, b, nullptr, a, nullptr)) >= 0;
+}
+
+VFE_SPHERE_PASS_CLONES
+std::int64_t deposit_sphere_chunk(const ParticleArrays& pa, std::int64_t first, std::int64_t count,
+                                  const SphereBounds& b, const CentreGrid& g, Validation& a, std::int64_t* left) {
+  const std::int64_t nleft = packed(pa) ? sphere_pass<true, true>(pa, first, count, b, &g, a, left)
+                                        : sphere_pass<false, true>(pa, first, count, b, &g, a, left);
+  return std::max<std::int64_t>(nleft, 0);
+}
+
+}  // namespace vfe::detail
