@@ -401,11 +401,10 @@ struct Engine::Impl {
   /// direct on a Cartesian grid with spheres and private fields: validation, locate and the
   /// add in one pass over the particles, so direct costs little more than reading them.
   bool fuses_direct(const ParticleArrays& pa, const detail::AccumulationPlan& pl) const {
-    constexpr std::int64_t kAxisLimit = std::int64_t(1) << 31;  // sphere_pass converts through int32
     return opts.method == Method::direct && mesh.kind() == MeshKind::cartesian && !mesh.cartesian()->is_block() &&
            !pa.shape_ids &&
            opts.orientation != Orientation::given && pl.strategy == Accumulation::privatised && !pl.uses_blocks() &&
-           !pl.touched_only && std::ranges::all_of(mesh.cartesian()->cells(), [](std::int64_t n) { return n < kAxisLimit; });
+           !pl.touched_only && mesh.cell_count() < detail::kCentreGridCells;
   }
 
   /// The fused pass: the same Validation as validate() (the same tree, the same particles in
@@ -428,8 +427,8 @@ struct Engine::Impl {
           g.inv_spacing[d] = 1.0 / grid.spacing()[d];
           g.cells[d] = double(grid.cells()[d]);
         }
-        g.strides[0] = double(grid.cells()[0]);
-        g.strides[1] = double(grid.cells()[0] * grid.cells()[1]);
+        g.strides[0] = static_cast<std::int32_t>(grid.cells()[0]);
+        g.strides[1] = static_cast<std::int32_t>(grid.cells()[0] * grid.cells()[1]);
         g.field = field;
         auto by_driver = [&](std::int64_t p) {
           s.deposits.clear();
@@ -595,8 +594,15 @@ struct Engine::Impl {
       acc.abandon();
       throw;
     }
+    // When nothing after the commit can fail (no snapshot or weights to record, no
+    // smoothing), the merge's pass over the cells also gathers the field's facts and writes
+    // out, block by block while each is in the cache.
+    const bool facts_in_merge = !opts.incremental && !opts.weights && opts.smoothing_length <= 0;
+    block_facts.resize(static_cast<std::size_t>((ncell + detail::kCellBlock - 1) / detail::kCellBlock));
+    FieldPass pass(*this, out.data());
+    bool out_written = false;
     try {
-      acc.commit(*arena);
+      out_written = acc.commit(*arena, facts_in_merge ? &pass : nullptr);
     } catch (...) {  // the field may be half written: the next compute starts afresh
       acc.invalidate_kept();
       have_field = weights_kept = false;
@@ -614,9 +620,11 @@ struct Engine::Impl {
     } else {
       smoothed.clear();
     }
-    rep.deposited_volume = sum_cells(field(), touched());
-    rep.clipped_volume = clipped_volume(field(), touched());
-    count_overfull();
+    const FieldFacts facts = out_written ? pass.total() : field_facts(out.data());
+    rep.deposited_volume = facts.sum;
+    rep.clipped_volume = facts.clipped;
+    overfull_cells = facts.overfull_cells;
+    overfull_volume = facts.overfull_volume;
     if (mesh.kind() != MeshKind::polyhedral && !pa.shape_ids)
       rep.outside_particles = v.beyond;  // geometric on grids: the same count for every method
     else if (opts.incremental)
@@ -626,7 +634,6 @@ struct Engine::Impl {
     counted_particles = 0;
     for (const Scratch& sc : scratch) counted_particles += sc.counted;
     fused_pass = fused;  // validation and deposits in one pass
-    std::copy(field().begin(), field().end(), out.begin());
     if (log->should_log(spdlog::level::info))  // the note allocates: steady-state computes must not
       log->info("computed {} particles with {} on a {}{}: {} moved, {} sub-elements, {} on the fast path, {} outside",
                 pa.n, to_string(opts.method), mesh.kind_name(), lattice_note(), acc.moved(), rep.sub_elements,
@@ -884,46 +891,85 @@ struct Engine::Impl {
   std::int64_t lattice_particles = 0;
   /// method=auto: particles of the last compute on the fast path, pmm and exact.
   std::int64_t auto_paths[3] = {0, 0, 0};
-  void count_overfull() {
-    overfull_cells = 0;
-    overfull_volume = 0;
-    const std::vector<double>& f = field();
-    auto check = [&](std::int64_t c) {
-      const double excess = f[static_cast<std::size_t>(c)] - mesh.cell_volume(c);
-      if (excess > 1e-12 * mesh.cell_volume(c)) {
-        ++overfull_cells;
-        overfull_volume += excess;
+  /// What the report says of the field: its sum, the solid volume that clipping eps at
+  /// alpha_min removes (0 when alpha_min is 0: no clip), and the overfull cells.
+  struct FieldFacts {
+    double sum = 0, clipped = 0, overfull_volume = 0;
+    std::int64_t overfull_cells = 0;
+    void add(const FieldFacts& o) {
+      sum += o.sum, clipped += o.clipped, overfull_volume += o.overfull_volume, overfull_cells += o.overfull_cells;
+    }
+  };
+  /// Adds cells [begin, end) of f to facts, cell by cell in order; cell_volume(c) gives V_c.
+  template <class CellVolume>
+  void add_facts(const double* f, std::int64_t begin, std::int64_t end, CellVolume&& cell_volume,
+                 FieldFacts& facts) const {
+    const double keep = 1.0 - opts.alpha_min;  // of a cell's volume, what clipping leaves solid
+    const bool clip = opts.alpha_min > 0;
+    for (std::int64_t c = begin; c < end; ++c) {
+      const double x = f[c], v = cell_volume(c);
+      facts.sum += x;
+      if (clip) facts.clipped += std::max(0.0, x - keep * v);
+      if (const double excess = x - v; excess > 1e-12 * v) [[unlikely]] {
+        ++facts.overfull_cells;
+        facts.overfull_volume += excess;
       }
-    };
-    if (const auto* cells = touched())
-      for (const std::int64_t c : *cells) check(c);
-    else
-      for (std::int64_t c = 0; c < mesh.cell_count(); ++c) check(c);
+    }
+  }
+  /// add_facts over cells [begin, end) of f, with a Cartesian grid's one cell volume.
+  void add_block_facts(const double* f, std::int64_t begin, std::int64_t end, FieldFacts& facts) const {
+    if (const CartesianGrid* g = mesh.cartesian()) {
+      const double v = g->cell_volume();
+      add_facts(f, begin, end, [v](std::int64_t) { return v; }, facts);
+    } else {
+      add_facts(f, begin, end, [this](std::int64_t c) { return mesh.cell_volume(c); }, facts);
+    }
   }
 
-  /// Sum of the field over the given cells (all cells when null).
-  static double sum_cells(const std::vector<double>& field, const std::vector<std::int64_t>* cells) {
-    double sum = 0;
-    if (cells)
-      for (const std::int64_t c : *cells) sum += field[static_cast<std::size_t>(c)];
-    else
-      for (const double x : field) sum += x;
-    return sum;
-  }
+  /// The facts of each block of the field (detail::kCellBlock cells), summed in block order
+  /// afterwards: the same sums for any thread count.
+  std::vector<FieldFacts> block_facts;
+  /// The field's facts block by block, each block copied to out (when given) once added.
+  class FieldPass final : public detail::CellPass {
+   public:
+    FieldPass(Impl& engine, double* out) : e_(engine), out_(out) {}
+    void cells(std::int64_t block, std::int64_t begin, std::int64_t end, const double* field) override {
+      FieldFacts& f = e_.block_facts[static_cast<std::size_t>(block)];
+      f = FieldFacts{};
+      e_.add_block_facts(field, begin, end, f);
+      if (out_) std::copy(field + begin, field + end, out_ + begin);
+    }
+    FieldFacts total() const {
+      FieldFacts t;
+      for (const FieldFacts& f : e_.block_facts) t.add(f);
+      return t;
+    }
 
-  /// Solid volume that clipping eps at alpha_min removes (0 when alpha_min is 0: no clip).
-  /// Over the given cells (all cells when null; others hold no solid).
-  double clipped_volume(const std::vector<double>& field, const std::vector<std::int64_t>* cells) const {
-    if (opts.alpha_min <= 0) return 0.0;
-    auto clip = [&](std::int64_t c) {
-      return std::max(0.0, field[static_cast<std::size_t>(c)] - (1.0 - opts.alpha_min) * mesh.cell_volume(c));
-    };
-    double clipped = 0;
-    if (cells)
-      for (const std::int64_t c : *cells) clipped += clip(c);
-    else
-      for (std::int64_t c = 0; c < static_cast<std::int64_t>(field.size()); ++c) clipped += clip(c);
-    return clipped;
+   private:
+    Impl& e_;
+    double* out_;
+  };
+
+  /// The facts of field() (over the touched cells when it lists them: the others hold no
+  /// solid), and field() copied to out when given.
+  FieldFacts field_facts(double* out) {
+    const std::vector<double>& f = field();
+    if (const auto* cells = touched()) {
+      FieldFacts facts;
+      for (const std::int64_t c : *cells) add_block_facts(f.data(), c, c + 1, facts);
+      if (out) std::copy(f.begin(), f.end(), out);
+      return facts;
+    }
+    const std::int64_t ncell = static_cast<std::int64_t>(f.size());
+    block_facts.resize(static_cast<std::size_t>((ncell + detail::kCellBlock - 1) / detail::kCellBlock));
+    FieldPass pass(*this, out);
+    arena->execute([&] {
+      tbb::parallel_for(std::size_t(0), block_facts.size(), [&](std::size_t b) {
+        const std::int64_t begin = std::int64_t(b) * detail::kCellBlock;
+        pass.cells(std::int64_t(b), begin, std::min(ncell, begin + detail::kCellBlock), f.data());
+      });
+    });
+    return pass.total();
   }
 };
 
@@ -1017,8 +1063,7 @@ void Engine::configure(std::string_view options) {
   if (new_arena) impl_->make_arena();
   impl_->log->set_level(spdlog::level::from_str(next.log_level));
   // The report's clipped volume follows alpha_min, as vfe_void_fraction does.
-  if (impl_->have_field)
-    impl_->report.clipped_volume = impl_->clipped_volume(impl_->field(), impl_->touched());
+  if (impl_->have_field) impl_->report.clipped_volume = impl_->field_facts(nullptr).clipped;
 }
 
 std::string Engine::option(std::string_view key) const { return option_value(impl_->opts, key); }

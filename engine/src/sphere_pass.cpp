@@ -4,6 +4,7 @@
 #include <cstring>
 #include <limits>
 #include <numbers>
+#include <type_traits>
 
 namespace vfe::detail {
 namespace {
@@ -54,7 +55,8 @@ template <bool kPacked, bool kDeposit>
   const char* const cc = pa.centres + first * cs;
   const char* const rr = pa.radii + first * rs;
   const double lo0 = b.lo[0], lo1 = b.lo[1], lo2 = b.lo[2], hi0 = b.hi[0], hi1 = b.hi[1], hi2 = b.hi[2];
-  double o0 = 0, o1 = 0, o2 = 0, i0 = 0, i1 = 0, i2 = 0, n0 = 0, n1 = 0, n2 = 0, s0 = 0, s1 = 0;
+  double o0 = 0, o1 = 0, o2 = 0, i0 = 0, i1 = 0, i2 = 0, n0 = 0, n1 = 0, n2 = 0;
+  std::int32_t s0 = 0, s1 = 0;
   double* field = nullptr;
   if constexpr (kDeposit) {
     o0 = g->origin[0], o1 = g->origin[1], o2 = g->origin[2];
@@ -71,12 +73,13 @@ template <bool kPacked, bool kDeposit>
   double volume = a.volume;
   std::int64_t nleft = 0;
 
-  // Particles k .. k + lanes - 1 (lanes <= 4); the lanes beyond repeat the last particle,
-  // which changes neither the validity nor the radii's extremes, and count for nothing else.
-  auto step = [&](std::int64_t k, int lanes) __attribute__((always_inline)) {
-    const std::int64_t j1 = std::min(1, lanes - 1), j2 = std::min(2, lanes - 1), j3 = std::min(3, lanes - 1);
+  // Particles k .. k + lanes - 1 (lanes <= 4; whole: lanes is 4). The lanes beyond repeat
+  // the last particle, which changes neither the validity nor the radii's extremes, and
+  // count for nothing else.
+  auto step = [&](auto whole, std::int64_t k, int lanes) __attribute__((always_inline)) {
     const char* c = cc + k * cs;
     const char* r = rr + k * rs;
+    v4d x, y, z, rad;
     if constexpr (kPacked) {
       // This machine's hardware prefetcher does not follow the particle stream: ask for
       // the particles 16 ahead (past the end is harmless).
@@ -89,12 +92,28 @@ template <bool kPacked, bool kDeposit>
         __builtin_prefetch(r + (16 + l) * rs);
       }
     }
-    const v4d x = {read_double(c), read_double(c + j1 * cs), read_double(c + j2 * cs), read_double(c + j3 * cs)};
-    const v4d y = {read_double(c + 8), read_double(c + j1 * cs + 8), read_double(c + j2 * cs + 8),
-                   read_double(c + j3 * cs + 8)};
-    const v4d z = {read_double(c + 16), read_double(c + j1 * cs + 16), read_double(c + j2 * cs + 16),
-                   read_double(c + j3 * cs + 16)};
-    const v4d rad = {read_double(r), read_double(r + j1 * rs), read_double(r + j2 * rs), read_double(r + j3 * rs)};
+    if constexpr (kPacked && decltype(whole)::value) {
+      // Four whole particles: three loads of x0 y0 z0 x1 | y1 z1 x2 y2 | z2 x3 y3 z3, transposed.
+      v4d a0, a1, a2;
+      std::memcpy(&a0, c, sizeof a0);
+      std::memcpy(&a1, c + 32, sizeof a1);
+      std::memcpy(&a2, c + 64, sizeof a2);
+      std::memcpy(&rad, r, sizeof rad);
+      const v4d p = __builtin_shuffle(a0, a1, v4l{0, 1, 6, 7});  // x0 y0 x2 y2
+      const v4d q = __builtin_shuffle(a0, a2, v4l{2, 3, 4, 5});  // z0 x1 z2 x3
+      const v4d s = __builtin_shuffle(a1, a2, v4l{0, 1, 6, 7});  // y1 z1 y3 z3
+      x = __builtin_shuffle(p, q, v4l{0, 5, 2, 7});
+      y = __builtin_shuffle(p, s, v4l{1, 4, 3, 6});
+      z = __builtin_shuffle(q, s, v4l{0, 5, 2, 7});
+    } else {
+      const std::int64_t j1 = std::min(1, lanes - 1), j2 = std::min(2, lanes - 1), j3 = std::min(3, lanes - 1);
+      x = v4d{read_double(c), read_double(c + j1 * cs), read_double(c + j2 * cs), read_double(c + j3 * cs)};
+      y = v4d{read_double(c + 8), read_double(c + j1 * cs + 8), read_double(c + j2 * cs + 8),
+              read_double(c + j3 * cs + 8)};
+      z = v4d{read_double(c + 16), read_double(c + j1 * cs + 16), read_double(c + j2 * cs + 16),
+              read_double(c + j3 * cs + 16)};
+      rad = v4d{read_double(r), read_double(r + j1 * rs), read_double(r + j2 * rs), read_double(r + j3 * rs)};
+    }
     const v4l valid = {-1, lanes > 1 ? -1 : 0, lanes > 2 ? -1 : 0, lanes > 3 ? -1 : 0};
     const v4d v = k4pi3 * rad * rad * rad;
     // particle_values_ok on four lanes (r > 0 follows from v >= the smallest normal).
@@ -108,23 +127,21 @@ template <bool kPacked, bool kDeposit>
     if constexpr (kDeposit) {
       const v4d t0 = (x - o0) * i0, t1 = (y - o1) * i1, t2 = (z - o2) * i2;
       const v4l in = valid & (t0 >= 0) & (t0 < n0) & (t1 >= 0) & (t1 < n1) & (t2 >= 0) & (t2 < n2);
-      // On [0, n) floor is truncation; lanes outside convert 0 instead.
-      const v4d f0 = __builtin_convertvector(__builtin_convertvector((in ? t0 : v4d{}), v4i), v4d);
-      const v4d f1 = __builtin_convertvector(__builtin_convertvector((in ? t1 : v4d{}), v4i), v4d);
-      const v4d f2 = __builtin_convertvector(__builtin_convertvector((in ? t2 : v4d{}), v4i), v4d);
-      const v4d cell = in ? f0 + s0 * f1 + s1 * f2 : v4d{} - 1;
+      // On [0, n) floor is truncation. A lane outside converts (-1, 0, 0): cell -1.
+      const v4i cell = __builtin_convertvector(in ? t0 : v4d{} - 1, v4i) +
+                       s0 * __builtin_convertvector(in ? t1 : v4d{}, v4i) +
+                       s1 * __builtin_convertvector(in ? t2 : v4d{}, v4i);
       for (int l = 0; l < lanes; ++l) {
-        const auto at = static_cast<std::int64_t>(cell[l]);
-        if (at >= 0) [[likely]]
-          field[at] += v[l];
+        if (cell[l] >= 0) [[likely]]
+          field[cell[l]] += v[l];
         else
           left[nleft++] = first + k + l;
       }
     }
   };
   std::int64_t k = 0;
-  for (; k + 4 <= count; k += 4) step(k, 4);
-  if (k < count) step(k, static_cast<int>(count - k));
+  for (; k + 4 <= count; k += 4) step(std::true_type{}, k, 4);
+  if (k < count) step(std::false_type{}, k, static_cast<int>(count - k));
 
   if ((ok[0] & ok[1] & ok[2] & ok[3]) == 0) [[unlikely]] {
     recheck_spheres(pa, first, count, b, a);

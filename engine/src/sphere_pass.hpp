@@ -13,14 +13,15 @@ namespace vfe::detail {
 /// buffer of this size on the stack.
 inline constexpr std::int64_t kSphereChunk = 256;
 
-/// A Cartesian grid's cells as direct's pass locates centres: cell (i, j, k) with
-/// i = floor((x - origin) * inv_spacing) in [0, cells) per axis, at i + strides[0] j +
-/// strides[1] k of field. Every count is a double (exact below 2^53); each axis has fewer
-/// than 2^31 cells (the pass converts through 32-bit integers).
+/// A Cartesian grid of fewer than kCentreGridCells cells as direct's pass locates centres:
+/// cell (i, j, k) with i = floor((x - origin) * inv_spacing) in [0, cells) per axis, at
+/// i + strides[0] j + strides[1] k of field (the pass computes in 32-bit integers).
 struct CentreGrid {
-  double origin[3], inv_spacing[3], cells[3], strides[2];
+  double origin[3], inv_spacing[3], cells[3];
+  std::int32_t strides[2];
   double* field;  ///< the thread's field
 };
+inline constexpr std::int64_t kCentreGridCells = std::int64_t(1) << 31;
 
 /// Checks spheres [first, first + count) into a (count <= kSphereChunk): NaN, infinities,
 /// r <= 0 and volumes doubles cannot hold (particle_values_ok), the volume summed in
