@@ -156,28 +156,52 @@ template <bool kPacked, bool kDeposit>
 
 bool packed(const ParticleArrays& pa) { return pa.centres_stride == 24 && pa.radii_stride == 8; }
 
-}  // namespace
-
-// Built for AVX2 + FMA as well as the baseline; the loader picks the one the CPU runs.
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(__SANITIZE_ADDRESS__)
-#define VFE_SPHERE_PASS_CLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
-#else
-#define VFE_SPHERE_PASS_CLONES
-#endif
-
-VFE_SPHERE_PASS_CLONES
-bool check_sphere_chunk(const ParticleArrays& pa, std::int64_t first, std::int64_t count, const SphereBounds& b,
-                        Validation& a) {
-  return (packed(pa) ? sphere_pass<true, false>(pa, first, count, b, nullptr, a, nullptr)
-                     : sphere_pass<false, false>(pa, first, count, b, nullptr, a, nullptr)) >= 0;
+template <bool kDeposit>
+[[gnu::always_inline]] inline std::int64_t either_pass(const ParticleArrays& pa, std::int64_t first, std::int64_t count,
+                                                       const SphereBounds& b, const CentreGrid* g, Validation& a,
+                                                       std::int64_t* left) {
+  return packed(pa) ? sphere_pass<true, kDeposit>(pa, first, count, b, g, a, left)
+                    : sphere_pass<false, kDeposit>(pa, first, count, b, g, a, left);
 }
 
-VFE_SPHERE_PASS_CLONES
+std::int64_t baseline_pass(const ParticleArrays& pa, std::int64_t first, std::int64_t count, const SphereBounds& b,
+                           const CentreGrid* g, Validation& a, std::int64_t* left) {
+  return g ? either_pass<true>(pa, first, count, b, g, a, left) : either_pass<false>(pa, first, count, b, g, a, left);
+}
+
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#define VFE_SPHERE_PASS_V3 1
+// The same source built for AVX2 + FMA: four lanes in one register.
+__attribute__((target("arch=x86-64-v3"))) std::int64_t v3_pass(const ParticleArrays& pa, std::int64_t first,
+                                                                std::int64_t count, const SphereBounds& b,
+                                                                const CentreGrid* g, Validation& a, std::int64_t* left) {
+  return g ? either_pass<true>(pa, first, count, b, g, a, left) : either_pass<false>(pa, first, count, b, g, a, left);
+}
+bool has_v3() {
+  static const bool yes = __builtin_cpu_supports("x86-64-v3");
+  return yes;
+}
+#endif
+
+std::int64_t pass(const ParticleArrays& pa, std::int64_t first, std::int64_t count, const SphereBounds& b,
+                  const CentreGrid* g, Validation& a, std::int64_t* left, PassBuild build) {
+#ifdef VFE_SPHERE_PASS_V3
+  if (build == PassBuild::fastest && has_v3()) return v3_pass(pa, first, count, b, g, a, left);
+#endif
+  return baseline_pass(pa, first, count, b, g, a, left);
+}
+
+}  // namespace
+
+bool check_sphere_chunk(const ParticleArrays& pa, std::int64_t first, std::int64_t count, const SphereBounds& b,
+                        Validation& a, PassBuild build) {
+  return pass(pa, first, count, b, nullptr, a, nullptr, build) >= 0;
+}
+
 std::int64_t deposit_sphere_chunk(const ParticleArrays& pa, std::int64_t first, std::int64_t count,
-                                  const SphereBounds& b, const CentreGrid& g, Validation& a, std::int64_t* left) {
-  const std::int64_t nleft = packed(pa) ? sphere_pass<true, true>(pa, first, count, b, &g, a, left)
-                                        : sphere_pass<false, true>(pa, first, count, b, &g, a, left);
-  return std::max<std::int64_t>(nleft, 0);
+                                  const SphereBounds& b, const CentreGrid& g, Validation& a, std::int64_t* left,
+                                  PassBuild build) {
+  return std::max<std::int64_t>(pass(pa, first, count, b, &g, a, left, build), 0);
 }
 
 }  // namespace vfe::detail
