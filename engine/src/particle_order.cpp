@@ -34,7 +34,7 @@ std::int64_t order_blocks(const Options& o, const ParticleArrays& pa, bool carte
     return 0;
   const std::int64_t bytes = 8 * cells;
   if (o.particle_order == ParticleOrder::automatic &&
-      !(cartesian && bytes >= kAutoFieldBytes && pa.n >= kAutoParticles))
+      !(cartesian && o.method != Method::direct && bytes >= kAutoFieldBytes && pa.n >= kAutoParticles))
     return 0;
   std::int64_t blocks = std::min<std::int64_t>((bytes + kBlockBytes - 1) / kBlockBytes, 4096);
   if (o.particle_order == ParticleOrder::blocked) blocks = std::max<std::int64_t>(blocks, 2);  // asked for: even when small

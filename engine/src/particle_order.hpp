@@ -30,8 +30,9 @@ namespace vfe::detail {
 inline constexpr std::int64_t kBlockBytes = 64 * 1024;
 
 /// particle_order=auto orders the particles when one thread's field is at least this large
-/// (below it the field stays in L2 anyway: docs/performance.md, "Particle order").
-inline constexpr std::int64_t kAutoFieldBytes = 2 * 1024 * 1024;
+/// (at 1 MB, the L2's size, the copy costs about what it saves; at 1.9 and 3.8 MB every
+/// method but direct gains 1.1-2x: docs/performance.md, "Particle order").
+inline constexpr std::int64_t kAutoFieldBytes = 3 * 512 * 1024;
 /// ... and there are at least this many particles (the copy's fixed costs).
 inline constexpr std::int64_t kAutoParticles = 1 << 17;
 
@@ -40,7 +41,8 @@ inline constexpr std::int64_t kAutoParticles = 1 << 17;
 /// in slabs of about kBlockBytes, at most one per layer. Spheres only, without given
 /// orientations (the records hold none), and not with incremental or weights (they keep
 /// deposits by the host's index). auto: only on a Cartesian grid (`cartesian`), from
-/// kAutoFieldBytes and kAutoParticles on.
+/// kAutoFieldBytes and kAutoParticles on, and not for direct (its fused pass costs about
+/// one read of the particles, which the copy alone costs twice).
 std::int64_t order_blocks(const Options& o, const ParticleArrays& pa, bool cartesian, std::int64_t cells,
                           std::int64_t layers);
 

@@ -3,6 +3,7 @@
 // agree to the summation's round-off, and bitwise with deterministic=1; what names a particle
 // (errors, rotation keys) must use the host's index or id.
 #include "particles.hpp"
+#include "particle_order.hpp"
 
 #include <vfe/vfe.h>
 
@@ -217,6 +218,37 @@ TEST(ParticleOrder, PeriodicGridsAndOtherMeshes) {
     expect_same_up_to_round_off(run(b, bed, std::string("lattice=0 particle_order=blocked method=") + method), fa,
                                 bed.volume() / 3000.0, "polyMesh");
     EXPECT_EQ(b.last_report_value("ordered_blocks"), 2.0);
+  }
+}
+
+TEST(ParticleOrder, AutoOrdersLargeFieldsOnlyAndNotForDirect) {
+  // 64 x 64 x 48 cells: a field of kAutoFieldBytes (1.5 MiB), in 24 slabs of 64 KiB.
+  static_assert(detail::kAutoFieldBytes == 8 * 64 * 64 * 48);
+  const Particles many = random_spheres(48, int(detail::kAutoParticles), 1.0, 47.0, 0.2, 0.4);
+  Particles fewer = many;
+  fewer.radii.pop_back(), fewer.centres.resize(fewer.centres.size() - 3);
+  struct Case {
+    const char* name;
+    CartesianGridSpec grid;
+    const Particles* p;
+    std::string options;
+    double blocks;
+  };
+  const Case cases[] = {
+      {"large", grid(1.0, 64, 64, 48), &many, "method=pmm", 24},
+      {"large, exact", grid(1.0, 64, 64, 48), &many, "method=exact", 24},
+      {"large, direct", grid(1.0, 64, 64, 48), &many, "method=direct", 0},
+      {"one particle fewer", grid(1.0, 64, 64, 48), &fewer, "method=pmm", 0},
+      {"one layer fewer", grid(1.0, 64, 64, 47), &many, "method=pmm", 0},
+      {"large, weights", grid(1.0, 64, 64, 48), &many, "method=pmm weights=1", 0},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    Engine e(c.grid);
+    const std::vector<double> f = run(e, *c.p, c.options + " orientation=none");
+    EXPECT_EQ(e.option("particle_order"), "auto");
+    EXPECT_EQ(e.last_report_value("ordered_blocks"), c.blocks);
+    EXPECT_NEAR(total(f), c.p->volume(), 1e-12 * c.p->volume());
   }
 }
 
