@@ -117,15 +117,16 @@ std::vector<std::int64_t> particle_counts(const std::vector<double>& values) {
   return out;
 }
 
-/// Keys the bench sets itself from its own flags.
-void check_free_options(const std::string& options) {
+/// Keys the bench sets itself from its own flags (particle_order: when --particle-order is given).
+void check_free_options(const std::string& options, bool with_particle_orders) {
   std::istringstream in(options);
   std::string token;
   while (in >> token) {
     const std::string key = token.substr(0, token.find('='));
-    if (key == "method" || key == "threads" || key == "particle_grid" || key == "particle_order")
+    if (key == "method" || key == "threads" || key == "particle_grid" ||
+        (key == "particle_order" && with_particle_orders))
       bad_argument("--options: '" + token + "' is set by the bench; use --" +
-                   (key == "particle_grid" ? std::string("particle-grid")
+                   (key == "particle_grid"    ? std::string("particle-grid")
                     : key == "particle_order" ? std::string("particle-order")
                                               : key) +
                    " instead");
@@ -590,7 +591,7 @@ BenchOutcome run_bench(const BenchCommand& c) {
   std::vector<std::string> methods = c.methods;
   if (methods == std::vector<std::string>{"all"}) methods = engine_method_names();
   if (c.repeats < 1) bad_argument("--repeats: bad value '" + std::to_string(c.repeats) + "'; expected a count >= 1");
-  check_free_options(c.options);
+  check_free_options(c.options, !c.particle_orders.empty());
 
   const std::string common = c.options + " particle_grid=" + c.particle_grid;
   vfe::Engine probe(vfe::CartesianGridSpec{});
