@@ -136,7 +136,8 @@ struct Engine::Impl {
   std::unique_ptr<detail::FaceGraph> faces;
   std::atomic<bool> busy{false};
   detail::BlockedOrder blocked_order;  ///< particle_order: the copy in cell-block order
-  std::int64_t ordered_blocks = 0;     ///< slabs the last compute ordered the particles by (0: the host's order)
+  std::int64_t arranged_blocks = 0;    ///< slabs this compute orders the particles by (0: the host's order)
+  std::int64_t ordered_blocks = 0;     ///< the same, of the last successful compute
 
   // --- shapes ---------------------------------------------------------------------------
 
@@ -599,7 +600,7 @@ struct Engine::Impl {
     }
     Report rep;
     try {
-      rep = gather_report(host, v.volume);  // names the host's particle  // throws the outside=error failure
+      rep = gather_report(host, v.volume);  // throws the outside=error failure, naming the host's particle
     } catch (...) {
       acc.abandon();
       throw;
@@ -635,6 +636,7 @@ struct Engine::Impl {
     counted_particles = 0;
     for (const Scratch& sc : scratch) counted_particles += sc.counted;
     fused_pass = fused;  // validation and deposits in one pass
+    ordered_blocks = arranged_blocks;
     std::copy(field().begin(), field().end(), out.begin());
     if (log->should_log(spdlog::level::info))  // the note allocates: steady-state computes must not
       log->info("computed {} particles with {} on a {}{}: {} moved, {} sub-elements, {} on the fast path, {} outside",
@@ -643,18 +645,19 @@ struct Engine::Impl {
   }
 
   /// particle_order: pa, or a copy of it in slabs of the field (particle_order.hpp) where
-  /// that may pay; any argument compute refuses leaves pa as it is.
+  /// that may pay (arranged_blocks: how many). Null arrays and n <= 0, which compute
+  /// refuses next, leave pa as it is.
   ParticleArrays arranged(const ParticleArrays& pa) {
     const std::int64_t layers = mesh.cartesian()     ? mesh.cartesian()->cells()[2]
                                 : mesh.rectilinear() ? mesh.rectilinear()->cells()[2]
                                                      : 0;
-    ordered_blocks = pa.n > 0 && pa.centres && pa.radii
-                         ? detail::order_blocks(opts, pa, mesh.kind() == MeshKind::cartesian, mesh.cell_count(), layers)
-                         : 0;
-    if (ordered_blocks == 0) return pa;
+    arranged_blocks = pa.n > 0 && pa.centres && pa.radii
+                          ? detail::order_blocks(opts, pa, mesh.kind() == MeshKind::cartesian, mesh.cell_count(), layers)
+                          : 0;
+    if (arranged_blocks == 0) return pa;
     const Eigen::AlignedBox3d box = mesh.bounds();
-    const ParticleArrays out = blocked_order.arrange(*arena, pa, box.min()[2], box.max()[2], ordered_blocks);
-    if (!out.host_index) ordered_blocks = 0;  // a bad particle: validation names it
+    const ParticleArrays out = blocked_order.arrange(*arena, pa, box.min()[2], box.max()[2], arranged_blocks);
+    if (!out.host_index) arranged_blocks = 0;  // a bad particle: validation names it
     return out;
   }
 
