@@ -208,7 +208,9 @@ TEST(FusedDirect, ABadParticleAnywhereFailsTheComputeAndLeavesTheOutputAlone) {
       }
       std::vector<double> again(e.cell_count(), -1.0);
       e.compute(p.view(), again);
-      EXPECT_EQ(again, good);
+      // Two threads may split the particles differently between computes: the same cells,
+      // added in another order.
+      expect_same_field(again, good, 1e-15 * p.volume(), "after the failed computes");
     }
 }
 
