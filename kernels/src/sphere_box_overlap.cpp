@@ -71,6 +71,22 @@ inline double smaller(double x, double y) { return x < y ? x : y; }
 inline double where_positive(double d, double x) { return d > 0.0 ? x : 0.0; }
 #endif
 
+// ratio_angle's atan(k/8) (k = 0..8) then pi/2 - atan(k/8), as unevaluated sums hi + lo.
+constexpr double kAngleHi[18] = {
+    0x0p+0,               0x1.fd5ba9aac2f6ep-4, 0x1.f5b75f92c80ddp-3,
+    0x1.6f61941e4def1p-2, 0x1.dac670561bb4fp-2, 0x1.1e00babdefeb4p-1,
+    0x1.4978fa3269ee1p-1, 0x1.700a7c5784634p-1, 0x1.921fb54442d18p-1,
+    0x1.921fb54442d18p+0, 0x1.7249faa996a21p+0, 0x1.5368c951e9cfdp+0,
+    0x1.3647503caf55cp+0, 0x1.1b6e192ebbe44p+0, 0x1.031f57e54adbep+0,
+    0x1.dac670561bb4fp-1, 0x1.b434ee31013fdp-1, 0x1.921fb54442d18p-1};
+constexpr double kAngleLo[18] = {
+    0x0p+0,                -0x1.cd37686760c17p-59, 0x1.8ab6e3cf7afbdp-57,
+    -0x1.c63aae6f6e918p-56, 0x1.a2b7f222f65e2p-56,  -0x1.928df287a668fp-58,
+    0x1.2419a87f2a458p-56,  -0x1.8c34d25aadef6p-56, 0x1.1a62633145c07p-55,
+    0x1.1a62633145c07p-54,  0x1.a8cc1e7480c68p-54, -0x1.96f47948a99f1p-54,
+    0x1.17e21d9a42c9ap-55,  0x1.b1b466a88828ep-54, 0x1.338b4259c027p-54,
+    0x1.a2b7f222f65e2p-55,  -0x1.0520d0701d877p-55, 0x1.1a62633145c07p-55};
+
 /// atan(num / den) for num, den >= 0 (both 0: 0), with an absolute error below
 /// ~2e-16.  Only absolute accuracy is needed here (all angles enter sums with O(1)
 /// weights), which allows a short inline evaluation: reduce to q = min / max in [0, 1],
@@ -80,21 +96,6 @@ inline double where_positive(double d, double x) { return d > 0.0 ? x : 0.0; }
 /// Written without branches (selects and one table), as the exact method evaluates it 9
 /// times per sphere on data-dependent ratios whose branches the processor cannot predict.
 inline double ratio_angle(double num, double den) {
-  // atan(k/8) (k = 0..8) then pi/2 - atan(k/8), as unevaluated sums hi + lo.
-  static constexpr double kHi[18] = {
-      0x0p+0,               0x1.fd5ba9aac2f6ep-4, 0x1.f5b75f92c80ddp-3,
-      0x1.6f61941e4def1p-2, 0x1.dac670561bb4fp-2, 0x1.1e00babdefeb4p-1,
-      0x1.4978fa3269ee1p-1, 0x1.700a7c5784634p-1, 0x1.921fb54442d18p-1,
-      0x1.921fb54442d18p+0, 0x1.7249faa996a21p+0, 0x1.5368c951e9cfdp+0,
-      0x1.3647503caf55cp+0, 0x1.1b6e192ebbe44p+0, 0x1.031f57e54adbep+0,
-      0x1.dac670561bb4fp-1, 0x1.b434ee31013fdp-1, 0x1.921fb54442d18p-1};
-  static constexpr double kLo[18] = {
-      0x0p+0,                -0x1.cd37686760c17p-59, 0x1.8ab6e3cf7afbdp-57,
-      -0x1.c63aae6f6e918p-56, 0x1.a2b7f222f65e2p-56,  -0x1.928df287a668fp-58,
-      0x1.2419a87f2a458p-56,  -0x1.8c34d25aadef6p-56, 0x1.1a62633145c07p-55,
-      0x1.1a62633145c07p-54,  0x1.a8cc1e7480c68p-54, -0x1.96f47948a99f1p-54,
-      0x1.17e21d9a42c9ap-55,  0x1.b1b466a88828ep-54, 0x1.338b4259c027p-54,
-      0x1.a2b7f222f65e2p-55,  -0x1.0520d0701d877p-55, 0x1.1a62633145c07p-55};
   // min, max and integer selects, which compile to no branch.
   const int swap = num > den;
   const double small = std::min(num, den), large = std::max(num, den);
@@ -108,7 +109,40 @@ inline double ratio_angle(double num, double den) {
       (-1.0 / 3 +
        u2 * (1.0 / 5 + u2 * (-1.0 / 7 + u2 * (1.0 / 9 + u2 * (-1.0 / 11 + u2 * (1.0 / 13))))));
   const int at = k + 9 * swap;
-  return kHi[at] + (kLo[at] + double(1 - 2 * swap) * (u + tail));
+  return kAngleHi[at] + (kAngleLo[at] + double(1 - 2 * swap) * (u + tail));
+}
+
+/// ratio_angle of two pairs at once, (num0, den0) into out0 and (num1, den1) into out1:
+/// with SSE2 the same operations on both lanes of a register, so the same bits as two
+/// calls at about the cost of one.
+inline void ratio_angle_pair(double num0, double den0, double num1, double den1, double& out0, double& out1) {
+#if defined(__SSE2__)
+  const __m128d num = _mm_set_pd(num1, num0), den = _mm_set_pd(den1, den0);
+  const __m128d one = _mm_set1_pd(1.0);
+  const __m128d swap = _mm_cmpgt_pd(num, den);
+  const __m128d small = _mm_min_pd(num, den), large = _mm_max_pd(num, den);
+  const __m128d q = _mm_div_pd(small, _mm_add_pd(large, _mm_and_pd(_mm_cmpeq_pd(large, _mm_setzero_pd()), one)));
+  const __m128i k = _mm_cvttpd_epi32(_mm_add_pd(_mm_mul_pd(_mm_set1_pd(8.0), q), _mm_set1_pd(0.5)));
+  const __m128d c = _mm_mul_pd(_mm_set1_pd(0.125), _mm_cvtepi32_pd(k));
+  const __m128d u = _mm_div_pd(_mm_sub_pd(q, c), _mm_add_pd(one, _mm_mul_pd(q, c)));
+  const __m128d u2 = _mm_mul_pd(u, u);
+  __m128d poly = _mm_mul_pd(u2, _mm_set1_pd(1.0 / 13));
+  for (const double coefficient : {-1.0 / 11, 1.0 / 9, -1.0 / 7, 1.0 / 5})
+    poly = _mm_mul_pd(u2, _mm_add_pd(_mm_set1_pd(coefficient), poly));
+  const __m128d tail = _mm_mul_pd(_mm_mul_pd(u, u2), _mm_add_pd(_mm_set1_pd(-1.0 / 3), poly));
+  // (u + tail) with the sign of the swapped lanes flipped: the multiply by -1 of ratio_angle.
+  const __m128d signed_sum = _mm_xor_pd(_mm_add_pd(u, tail), _mm_and_pd(swap, _mm_set1_pd(-0.0)));
+  const int swaps = _mm_movemask_pd(swap);
+  const int at0 = _mm_cvtsi128_si32(k) + 9 * (swaps & 1);
+  const int at1 = _mm_cvtsi128_si32(_mm_shuffle_epi32(k, 1)) + 9 * (swaps >> 1);
+  const __m128d hi = _mm_set_pd(kAngleHi[at1], kAngleHi[at0]), lo = _mm_set_pd(kAngleLo[at1], kAngleLo[at0]);
+  const __m128d angle = _mm_add_pd(hi, _mm_add_pd(lo, signed_sum));
+  out0 = _mm_cvtsd_f64(angle);
+  out1 = _mm_cvtsd_f64(_mm_unpackhi_pd(angle, angle));
+#else
+  out0 = ratio_angle(num0, den0);
+  out1 = ratio_angle(num1, den1);
+#endif
 }
 
 /// K(a, b, c) above, for a, b, c in [0, 1].
@@ -174,19 +208,28 @@ struct Wedge {
   double s = 0, arc_p = 0, arc_q = 0, exterior = 0, volume = 0;
 };
 
-inline Wedge wedge_terms(double p, double q) {
+/// The wedge's root: whether it reaches the ball, and s.
+inline Wedge wedge_root(double p, double q) {
   Wedge w;
-  const double p2 = p * p, q2 = q * q;
-  const double d = (1.0 - p2) - q2;
+  const double d = (1.0 - p * p) - q * q;
   w.present = where_positive(d, 1.0);
   w.s = std::sqrt(positive_part(d));
-  const double pq = p * q;
+  return w;
+}
+
+/// The wedge's volume from its root and angles.
+inline void wedge_volume(double p, double q, Wedge& w) {
+  const double arcs = p * (3.0 - p * p) * w.arc_p + q * (3.0 - q * q) * w.arc_q;
+  const double three_half_w = (0.5 * kPi - w.exterior) - 0.5 * arcs + p * q * w.s;
+  w.volume = positive_part(three_half_w) * (2.0 / 3.0) * w.present;
+}
+
+inline Wedge wedge_terms(double p, double q) {
+  Wedge w = wedge_root(p, q);
   w.arc_p = ratio_angle(w.s, q);
   w.arc_q = ratio_angle(w.s, p);
-  w.exterior = ratio_angle(pq, w.s);
-  const double arcs = p * (3.0 - p2) * w.arc_p + q * (3.0 - q2) * w.arc_q;
-  const double three_half_w = (0.5 * kPi - w.exterior) - 0.5 * arcs + pq * w.s;
-  w.volume = positive_part(three_half_w) * (2.0 / 3.0) * w.present;
+  w.exterior = ratio_angle(p * q, w.s);
+  wedge_volume(p, q, w);
   return w;
 }
 
@@ -214,6 +257,26 @@ inline double corner_from_wedges(double a, double b, double c, const Wedge& xy, 
   // A pair missing the ball while d > 0 is round-off at a corner on the sphere: K ~ 0.
   const double reached = where_positive(d, xy.present * yz.present * zx.present);
   return positive_part(three_k) / 3.0 * reached;
+}
+
+/// unit_ball_octants' wedges and corner when all three planes cut (v[3], v[5], v[6], v[7]).
+/// Out of line: inlined beside the one-wedge cases it makes the compiler spill.
+[[gnu::noinline]] void three_planes(const double t[3], double v[8]) {
+  const double a = t[0], b = t[1], c = t[2];
+  Wedge xy = wedge_root(a, b), yz = wedge_root(b, c), zx = wedge_root(c, a);
+  // wedge_terms' 9 angles, two at a time.
+  ratio_angle_pair(xy.s, b, xy.s, a, xy.arc_p, xy.arc_q);
+  ratio_angle_pair(yz.s, c, yz.s, b, yz.arc_p, yz.arc_q);
+  ratio_angle_pair(zx.s, a, zx.s, c, zx.arc_p, zx.arc_q);
+  ratio_angle_pair(a * b, xy.s, b * c, yz.s, xy.exterior, yz.exterior);
+  zx.exterior = ratio_angle(c * a, zx.s);
+  wedge_volume(a, b, xy);
+  wedge_volume(b, c, yz);
+  wedge_volume(c, a, zx);
+  v[3] = xy.volume;
+  v[6] = yz.volume;
+  v[5] = zx.volume;
+  v[7] = corner_from_wedges(a, b, c, xy, yz, zx);
 }
 
 /// Cap of the unit ball beyond the plane X = t, t in [0, 1].
@@ -380,27 +443,26 @@ void unit_ball_octants(double a, double b, double c, double volumes[8]) {
   // Each axis reflected so that its plane lies at t >= 0: the far side X' >= t is then the
   // smaller part, and v[m] below, the ball in the far sides of the axes in m (m = 0: the
   // whole ball), is a cap, wedge or corner evaluated where it is well conditioned. A plane
-  // at |t| >= 1 (or NaN) misses the ball: t = 1 makes its cap, wedges and corner exactly 0.
-  // No branches: which planes cut, and which wedges and corners reach the ball, vary from
-  // sphere to sphere at random.
+  // at |t| >= 1 (or NaN) misses the ball: t = 1 makes its cap exactly 0.
   const double in[3] = {a, b, c};
   double t[3];
-  unsigned flip = 0;
+  unsigned flip = 0, cut = 0;
   for (int d = 0; d < 3; ++d) {
     const double w = std::abs(in[d]);
     flip |= unsigned(std::signbit(in[d])) << d;
+    cut |= unsigned(w < 1.0) << d;
     t[d] = smaller(w, 1.0);  // NaN gives 1
   }
-  const Wedge xy = wedge_terms(t[0], t[1]), yz = wedge_terms(t[1], t[2]), zx = wedge_terms(t[2], t[0]);
-  double v[8];
-  v[0] = kUnitBallVolume;
-  v[1] = unit_ball_cap(t[0]);
-  v[2] = unit_ball_cap(t[1]);
-  v[4] = unit_ball_cap(t[2]);
-  v[3] = xy.volume;
-  v[6] = yz.volume;
-  v[5] = zx.volume;
-  v[7] = corner_from_wedges(t[0], t[1], t[2], xy, yz, zx);
+  double v[8] = {kUnitBallVolume, unit_ball_cap(t[0]), unit_ball_cap(t[1]), 0.0, unit_ball_cap(t[2]), 0.0, 0.0, 0.0};
+  // One branch on which planes cut (the same for every sphere spanning 2 cells per axis);
+  // inside, none: which wedges and corners reach the ball varies at random.
+  switch (cut) {
+    case 7: three_planes(t, v); break;
+    case 3: v[3] = wedge_terms(t[0], t[1]).volume; break;
+    case 6: v[6] = wedge_terms(t[1], t[2]).volume; break;
+    case 5: v[5] = wedge_terms(t[2], t[0]).volume; break;
+    default: break;  // at most one plane: its cap
+  }
   // Inclusion-exclusion one axis at a time: near side = ball - far side. Every
   // intermediate value is the volume of a region, at least half of the term it is taken
   // from (the near side holds the mirror image of the far side), so nothing cancels.

@@ -16,9 +16,11 @@ namespace vfe::detail {
 /// parts[i + 2j + 4k] is local cell (i, j, k)'s, 0 where the window has one cell on an axis.
 inline void exact_window_parts(const CartesianGrid& grid, const Particle& p, const std::int64_t lo[3],
                                const std::int64_t hi[3], double parts[8]) {
+  const double inverse_radius = 1.0 / p.radius;
   double plane[3];
   for (int d = 0; d < 3; ++d)
-    plane[d] = hi[d] > lo[d] ? (grid.node(d, hi[d]) - p.centre[d]) / p.radius : std::numeric_limits<double>::infinity();
+    plane[d] = hi[d] > lo[d] ? (grid.node(d, hi[d]) - p.centre[d]) * inverse_radius
+                             : std::numeric_limits<double>::infinity();
   kernels::unit_ball_octants(plane[0], plane[1], plane[2], parts);
   const double r3 = p.radius * p.radius * p.radius;
   for (int m = 0; m < 8; ++m) parts[m] *= r3;
@@ -36,9 +38,15 @@ bool exact_sphere_quick(const Context& ctx, Scratch& s, const Particle& p, Sink&
   if (grid.periodic_mask()) return false;
   std::int64_t lo[3], hi[3];
   for (int d = 0; d < 3; ++d) {
-    lo[d] = grid.axis_index(d, p.centre[d] - p.radius);
-    hi[d] = grid.axis_index(d, p.centre[d] + p.radius);
-    if (lo[d] < 0 || hi[d] >= grid.cells()[d] || hi[d] - lo[d] > 1) return false;
+    // axis_index's cells, tested in cell units first: inside the grid, floor is a
+    // truncation on a grid from the origin (not a block).
+    const double from = grid.axis_coordinate(d, p.centre[d] - p.radius);
+    const double to = grid.axis_coordinate(d, p.centre[d] + p.radius);
+    const std::int64_t first = grid.first(d);
+    if (!(from >= double(first) && to < double(first + grid.cells()[d]))) return false;  // or NaN
+    lo[d] = (first == 0 ? static_cast<std::int64_t>(from) : CartesianGrid::fast_floor(from)) - first;
+    hi[d] = (first == 0 ? static_cast<std::int64_t>(to) : CartesianGrid::fast_floor(to)) - first;
+    if (hi[d] - lo[d] > 1) return false;
   }
   const std::int64_t base = grid.index(lo[0], lo[1], lo[2]);
   const std::int64_t step[3] = {hi[0] - lo[0], (hi[1] - lo[1]) * grid.cells()[0],

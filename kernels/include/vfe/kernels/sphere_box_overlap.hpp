@@ -21,7 +21,8 @@ double unit_ball_orthant_volume(double x, double y, double z);
 /// (tangent included).  Exact to round-off (absolute error ~1e-15 of the ball volume), the
 /// parts summing to 4 pi / 3 to round-off; a part cut off by one plane alone is the cap
 /// formula's value.  Costs 3 caps, 3 wedges and one corner in closed form (9 angles, 3 square
-/// roots) at most: the cells of a sphere spanning at most 2 cells per axis, in one call.
+/// roots) when all three planes cut, one wedge for two, a cap for one: the cells of a sphere
+/// spanning at most 2 cells per axis, in one call.
 void unit_ball_octants(double a, double b, double c, double volumes[8]);
 
 /// Volume of the ball |p - centre| <= radius intersected with the box [lo, hi].
