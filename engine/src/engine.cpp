@@ -14,6 +14,7 @@
 #include "options.hpp"
 #include "particle_grid.hpp"
 #include "particle_arrays.hpp"
+#include "particle_order.hpp"
 #include "shape_spec.hpp"
 #include "smoothing.hpp"
 
@@ -135,6 +136,9 @@ struct Engine::Impl {
   std::vector<double> smoothed;
   std::unique_ptr<detail::FaceGraph> faces;
   std::atomic<bool> busy{false};
+  detail::BlockedOrder blocked_order;  ///< particle_order: the copy in cell-block order
+  std::int64_t arranged_blocks = 0;    ///< slabs this compute orders the particles by (0: the host's order)
+  std::int64_t ordered_blocks = 0;     ///< the same, of the last successful compute
 
   // --- shapes ---------------------------------------------------------------------------
 
@@ -492,7 +496,7 @@ struct Engine::Impl {
             __builtin_prefetch(pa.centres + (p + 16) * pa.centres_stride);
             __builtin_prefetch(pa.radii + (p + 16) * pa.radii_stride);
             const double radius = pa.radius(p);
-            detail::Particle part{p, pa.centre(p), radius, sphere_volume(radius), nullptr, pa.rotation_key(p)};
+            detail::Particle part{pa.host(p), pa.centre(p), radius, sphere_volume(radius), nullptr, pa.rotation_key(p)};
             if (hybrid ? detail::auto_sphere_quick(ctx, s, part, add) : detail::pmm_sphere_quick(ctx, s, part, add))
               continue;
             s.deposits.clear();
@@ -574,7 +578,8 @@ struct Engine::Impl {
 
   // --- the compute ----------------------------------------------------------------------
 
-  void compute(const ParticleArrays& pa, std::span<double> out) {
+  void compute(const ParticleArrays& host, std::span<double> out) {
+    const ParticleArrays pa = arranged(host);  // the host's arrays, or a copy in cell-block order
     const std::int64_t ncell = mesh.cell_count();
     if (static_cast<std::int64_t>(out.size()) != ncell)
       throw Error(VFE_ERROR_INVALID_ARGUMENT, "output has " + std::to_string(out.size()) +
@@ -637,7 +642,7 @@ struct Engine::Impl {
     }
     Report rep;
     try {
-      rep = gather_report(pa, v.volume);  // throws the outside=error failure
+      rep = gather_report(host, v.volume);  // throws the outside=error failure, naming the host's particle
     } catch (...) {
       acc.abandon();
       throw;
@@ -673,11 +678,29 @@ struct Engine::Impl {
     counted_particles = 0;
     for (const Scratch& sc : scratch) counted_particles += sc.counted;
     fused_pass = fused;  // validation and deposits in one pass
+    ordered_blocks = arranged_blocks;
     std::copy(field().begin(), field().end(), out.begin());
     if (log->should_log(spdlog::level::info))  // the note allocates: steady-state computes must not
       log->info("computed {} particles with {} on a {}{}: {} moved, {} sub-elements, {} on the fast path, {} outside",
                 pa.n, to_string(opts.method), mesh.kind_name(), lattice_note(), acc.moved(), rep.sub_elements,
                 rep.fast_path_particles, rep.outside_particles);
+  }
+
+  /// particle_order: pa, or a copy of it in slabs of the field (particle_order.hpp) where
+  /// that may pay (arranged_blocks: how many). Null arrays and n <= 0, which compute
+  /// refuses next, leave pa as it is.
+  ParticleArrays arranged(const ParticleArrays& pa) {
+    const std::int64_t layers = mesh.cartesian()     ? mesh.cartesian()->cells()[2]
+                                : mesh.rectilinear() ? mesh.rectilinear()->cells()[2]
+                                                     : 0;
+    arranged_blocks = pa.n > 0 && pa.centres && pa.radii
+                          ? detail::order_blocks(opts, pa, mesh.kind() == MeshKind::cartesian, mesh.cell_count(), layers)
+                          : 0;
+    if (arranged_blocks == 0) return pa;
+    const Eigen::AlignedBox3d box = mesh.bounds();
+    const ParticleArrays out = blocked_order.arrange(*arena, pa, box.min()[2], box.max()[2], arranged_blocks);
+    if (!out.host_index) arranged_blocks = 0;  // a bad particle: validation names it
+    return out;
   }
 
   /// How the polyMesh's box lattice served this compute ("" when it did not).
@@ -698,7 +721,7 @@ struct Engine::Impl {
   /// Particle p as the drivers see it.
   detail::Particle particle(const ParticleArrays& pa, std::int64_t p) const {
     const double r = pa.radius(p);
-    detail::Particle part{p, mesh.wrap(pa.centre(p)), r, 0.0, pa.orientation(p), pa.rotation_key(p)};
+    detail::Particle part{pa.host(p), mesh.wrap(pa.centre(p)), r, 0.0, pa.orientation(p), pa.rotation_key(p)};
     if (pa.shape_ids && !shapes[pa.shape_id(p)].is_sphere) {
       const RegisteredShape& sh = shapes[pa.shape_id(p)];
       part.volume = sh.shape.volume() * r * r * r;
@@ -1193,6 +1216,7 @@ double Engine::last_report_value(std::string_view key) const {
       {"overfull_volume", impl_->overfull_volume},
       {"counted_particles", double(impl_->counted_particles)},
       {"fused_pass", impl_->fused_pass ? 1.0 : 0.0},
+      {"ordered_blocks", double(impl_->have_field ? impl_->ordered_blocks : 0)},
       {"lattice_cells", impl_->mesh.lattice() ? double(impl_->mesh.cell_count()) : 0.0},
       {"lattice_particles", double(impl_->have_field ? impl_->lattice_particles : 0)},
       {"auto_fast", double(impl_->have_field ? impl_->auto_paths[0] : 0)},
