@@ -6,6 +6,7 @@
 
 #include "accumulator.hpp"
 #include "engine_mesh.hpp"
+#include "methods/exact.hpp"
 #include "methods/hybrid.hpp"
 #include "methods/lattice.hpp"
 #include "methods/registry.hpp"
@@ -511,6 +512,45 @@ struct Engine::Impl {
     });
   }
 
+  /// exact on a Cartesian grid (no periodic axis) with spheres and private fields: a sphere
+  /// whose cells lie in the grid, at most two per axis, adds its parts straight into the
+  /// thread's field (methods/exact.hpp, exact_sphere_quick); any other goes through the
+  /// driver. The same cells and volumes as the general loop.
+  bool fuses_exact(const ParticleArrays& pa, const detail::AccumulationPlan& pl) const {
+    return opts.method == Method::exact && mesh.kind() == MeshKind::cartesian && !pa.shape_ids && !mesh.periodic() &&
+           pl.strategy == Accumulation::privatised && !pl.uses_blocks() && !pl.touched_only;
+  }
+
+  void fused_exact(const ParticleArrays& pa, const detail::AccumulationPlan& pl, const detail::TemplateBank& bank) {
+    const detail::Context ctx{detail::MethodContext{opts, bank, divided}, *mesh.cartesian()};
+    private_field_pass(pa, pl, [&](Scratch& s, auto&& add, const tbb::blocked_range<std::int64_t>& r) {
+      for (std::int64_t p = r.begin(); p < r.end(); ++p) {
+        const double radius = pa.radius(p);
+        const detail::Particle part{p, pa.centre(p), radius, sphere_volume(radius), nullptr, 0};
+        if (detail::exact_sphere_quick(ctx, s, part, add)) continue;
+        s.deposits.clear();
+        detail::exact_particle(ctx, s, particle(pa, p));
+        for (const Deposit& d : s.deposits) add(d.cell, d.volume);
+      }
+    });
+  }
+
+  /// Phase 1 by a pass of the caller's own over the particles (blocks of 256 on the
+  /// engine's threads), adding straight into each thread's private field:
+  /// body(scratch, add, block) with add(cell, volume). The frame of the fused passes.
+  template <class Body>
+  void private_field_pass(const ParticleArrays& pa, const detail::AccumulationPlan& pl, Body&& body) {
+    acc.deposit_private(pl, pa.n, [&](auto&& thread_field) {
+      arena->execute([&] {
+        tbb::parallel_for(tbb::blocked_range<std::int64_t>(0, pa.n, 256), [&](const tbb::blocked_range<std::int64_t>& r) {
+          double* const field = thread_field();
+          body(scratch.local(), [field](std::int64_t cell, double v) { field[cell] += v; }, r);
+        });
+      });
+      return 0;
+    });
+  }
+
   // --- accumulation plan ----------------------------------------------------------------
 
   detail::AccumulationPlan plan(std::int64_t n) const {
@@ -569,9 +609,11 @@ struct Engine::Impl {
 
     const detail::MethodDrivers& drivers = detail::method_drivers(opts.method);
     const detail::MethodContext common{opts, bank, divided};
+    const bool fused_exact_pass = !fused && fuses_exact(pa, pl);
+    if (fused_exact_pass) fused_exact(pa, pl, bank);
     const bool fused_particles = !fused && fuses_pmm(pa, pl);
     if (fused_particles) fused_pmm(pa, pl, bank);
-    if (!fused && !fused_particles) switch (mesh.kind()) {
+    if (!fused && !fused_particles && !fused_exact_pass) switch (mesh.kind()) {
       case MeshKind::cartesian:
         run(detail::Context{common, *mesh.cartesian()}, drivers.cartesian, pa, pl);
         break;
