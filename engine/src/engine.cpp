@@ -526,7 +526,9 @@ struct Engine::Impl {
     private_field_pass(pa, pl, [&](Scratch& s, auto&& add, const tbb::blocked_range<std::int64_t>& r) {
       for (std::int64_t p = r.begin(); p < r.end(); ++p) {
         const double radius = pa.radius(p);
-        const detail::Particle part{p, pa.centre(p), radius, sphere_volume(radius), nullptr, 0};
+        // A sphere needs no rotation key; its index is the host's (particle_order may have
+        // arranged the arrays).
+        const detail::Particle part{pa.host(p), pa.centre(p), radius, sphere_volume(radius), nullptr, 0};
         if (detail::exact_sphere_quick(ctx, s, part, add)) continue;
         s.deposits.clear();
         detail::exact_particle(ctx, s, particle(pa, p));
