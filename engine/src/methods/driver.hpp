@@ -324,13 +324,19 @@ class PmmQuick {
     for (unsigned o = 0; o < 8; ++o) corner_offset_[o] = (o & 1) + nx_ * ((o >> 1) & 1) + nxy_ * ((o >> 2) & 1);
   }
 
+  const Context& context() const { return ctx_; }
+
+  /// What a counted particle gives the sink for an octant it reaches without a sub-element:
+  /// nothing, or a zero volume (for a sink adding into a field, where it changes nothing and
+  /// saves a branch that often mispredicts).
+  enum class EmptyOctants { skip, add_zero };
+
   /// Adds particle p through sink(cell, volume) and counts as deposit_points does; false,
   /// with nothing added or counted, when neither quick case applies (pmm_particle then
   /// does the general work).
-  const Context& context() const { return ctx_; }
-
   template <class Sink>
-  [[gnu::always_inline]] bool operator()(Scratch& s, const Particle& p, Sink&& sink) const {
+  [[gnu::always_inline]] bool operator()(Scratch& s, const Particle& p, Sink&& sink,
+                                         EmptyOctants empty = EmptyOctants::skip) const {
     if (!usable_) return false;
     const kernels::ParticleTemplate& t = single_ && !p.shape_template ? *single_ : ctx_.template_for(p);
     // make_window's cells, for a window inside the grid: there no clamp acts, and on a grid
@@ -381,7 +387,7 @@ class PmmQuick {
     s.sub_elements += size;
     const double share = p.volume * t.fractions[0];
     for (unsigned o = two;; o = (o - 1) & two) {  // the octants the split axes reach
-      if (counts[o]) sink(cell + corner_offset_[o], share * double(counts[o]));
+      if (counts[o] || empty == EmptyOctants::add_zero) sink(cell + corner_offset_[o], share * double(counts[o]));
       if (o == 0) break;
     }
     return true;
