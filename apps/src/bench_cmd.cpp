@@ -117,15 +117,19 @@ std::vector<std::int64_t> particle_counts(const std::vector<double>& values) {
   return out;
 }
 
-/// Keys the bench sets itself from its own flags.
-void check_free_options(const std::string& options) {
+/// Keys the bench sets itself from its own flags (particle_order: when --particle-order is given).
+void check_free_options(const std::string& options, bool with_particle_orders) {
   std::istringstream in(options);
   std::string token;
   while (in >> token) {
     const std::string key = token.substr(0, token.find('='));
-    if (key == "method" || key == "threads" || key == "particle_grid")
+    if (key == "method" || key == "threads" || key == "particle_grid" ||
+        (key == "particle_order" && with_particle_orders))
       bad_argument("--options: '" + token + "' is set by the bench; use --" +
-                   (key == "particle_grid" ? std::string("particle-grid") : key) + " instead");
+                   (key == "particle_grid"    ? std::string("particle-grid")
+                    : key == "particle_order" ? std::string("particle-order")
+                                              : key) +
+                   " instead");
   }
 }
 
@@ -337,6 +341,8 @@ Record record_of(const BenchRow& r) {
           {"solid_fraction", r.solid_fraction},
           {"method", r.method},
           {"options", r.options},
+          {"particle_order", r.particle_order},
+          {"ordered_blocks", r.ordered_blocks},
           {"threads", std::int64_t{r.threads}},
           {"repeats", std::int64_t{r.repeats}},
           {"time_median_ms", r.time_median_ms},
@@ -438,7 +444,7 @@ std::string cell_text(const char* format, double v) {
   return buf;
 }
 
-constexpr const char* kRowFormat = "%8s %4s %-9s %3s %9s %10s %8s %8s %7s %7s %6s %7s %7s %7s %9s %8s\n";
+constexpr const char* kRowFormat = "%8s %4s %-14s %3s %9s %10s %8s %8s %7s %7s %6s %7s %7s %7s %9s %8s\n";
 
 void print_header(std::ostream& out) {
   char line[256];
@@ -585,13 +591,17 @@ BenchOutcome run_bench(const BenchCommand& c) {
   std::vector<std::string> methods = c.methods;
   if (methods == std::vector<std::string>{"all"}) methods = engine_method_names();
   if (c.repeats < 1) bad_argument("--repeats: bad value '" + std::to_string(c.repeats) + "'; expected a count >= 1");
-  check_free_options(c.options);
+  check_free_options(c.options, !c.particle_orders.empty());
 
   const std::string common = c.options + " particle_grid=" + c.particle_grid;
   vfe::Engine probe(vfe::CartesianGridSpec{});
   configure_or_throw(probe, c.options, "--options");
   configure_or_throw(probe, "particle_grid=" + c.particle_grid, "--particle-grid");
   for (const std::string& m : methods) configure_or_throw(probe, "method=" + m, "--method");
+  // The engine's default when not given; several are timed alternately, one engine each.
+  const std::vector<std::string> orders = c.particle_orders.empty() ? std::vector<std::string>{""} : c.particle_orders;
+  for (const std::string& o : orders)
+    if (!o.empty()) configure_or_throw(probe, "particle_order=" + o, "--particle-order");
   probe.configure("method=pmm");  // the limits use pmm's template sizes
 
   std::error_code ec;
@@ -603,7 +613,7 @@ BenchOutcome run_bench(const BenchCommand& c) {
   BenchOutcome out;
   out.output = c.output;
   if (c.table) print_header(*c.table);
-  const std::size_t total_rows = counts.size() * c.chi.size() * threads.size() * methods.size();
+  const std::size_t total_rows = counts.size() * c.chi.size() * threads.size() * methods.size() * orders.size();
   for (const std::int64_t n : counts) {
     const auto t_scene = Clock::now();
     BenchScene scene = make_bench_scene(c.scene, c.dispersity, n, c.seed);
@@ -662,75 +672,99 @@ BenchOutcome run_bench(const BenchCommand& c) {
         }
 
         for (const std::string& method : methods) {
-          BenchRow row;
-          return_free_memory();
-          const std::int64_t before_engine = resident_bytes();
-          vfe::Engine engine(grid);
-          const std::int64_t after_engine = resident_bytes();
-          engine.configure(common + " method=" + method + " threads=" + std::to_string(t));
-          return_free_memory();
-          const std::int64_t before_compute = resident_bytes();
-          const auto t_warm = Clock::now();
-          engine.compute(view, field);
-          const double warm_ms = ms_since(t_warm);
-          const std::int64_t after_compute = resident_bytes();
-          if (warm_ms > 5000)
-            log->info("{}, {} thread(s): warm-up took {:.1f} s; {} timed computes follow", method, t, warm_ms * 1e-3,
-                      c.repeats);
-          const vfe::Report rep = engine.last_report();
-          warn_overfull(*log, scene.name + " chi=" + printf_number("%.3g", chi), method, overfull_facts(engine),
-                        rep.particle_volume);
-          const Timing timing = time_calls(c.repeats, [&] { engine.compute(view, field); });
-
-          const bool have_memory = before_engine >= 0 && before_compute >= 0;
-          row.scene = scene.name;
-          row.order = c.order;
-          row.dispersity = scene.dispersity;
-          row.method = method;
-          row.options = engine.options();
-          row.particles = n;
-          row.chi = chi;
-          row.cell_size = h;
-          row.solid_fraction = scene.solid_fraction;
-          row.grid = grid.cells;
-          row.cells = ncells;
-          row.threads = t;
-          row.repeats = c.repeats;
-          row.time_median_ms = timing.median_ms;
-          row.time_min_ms = timing.min_ms;
-          row.particles_per_s = double(n) / (timing.median_ms * 1e-3);
-          row.sub_elements = rep.sub_elements;
-          row.sub_elements_per_s = double(rep.sub_elements) / (timing.median_ms * 1e-3);
-          row.sub_elements_per_particle = double(rep.sub_elements) / double(n);
-          row.fast_path_particles = rep.fast_path_particles;
-          row.particle_grid_min = rep.particle_grid_min;
-          row.particle_grid_max = rep.particle_grid_max;
-          row.volume_error = std::abs(rep.deposited_volume + rep.dropped_volume - rep.particle_volume) /
-                             rep.particle_volume;
-          row.engine_bytes = have_memory ? after_engine - before_engine : -1;
-          row.compute_bytes = have_memory ? after_compute - before_compute : -1;
-          row.bytes_per_cell = have_memory ? double(row.engine_bytes) / double(ncells) : kNaN;
-          row.bytes_per_particle = have_memory ? double(row.compute_bytes) / double(n) : kNaN;
-          row.peak_rss_bytes = peak_resident_bytes();
-          row.speedup = kNaN;
-          for (const BenchRow& one : out.rows)
-            if (t != 1 && one.threads == 1 && one.particles == n && one.chi == chi && one.method == method)
-              row.speedup = one.time_median_ms / row.time_median_ms;
-          row.bandwidth_ms = limit.bandwidth_ms;
-          row.store_ms = limit.store_ms;
-          row.scatter_ms = limit.scatter_ms;
-          row.locate_ms = limit.locate_ms;
-          row.x_bandwidth = row.time_median_ms / limit.bandwidth_ms;
-          row.x_store = row.time_median_ms / limit.store_ms;
-          row.x_scatter = row.time_median_ms / limit.scatter_ms;
-          row.x_locate = row.time_median_ms / limit.locate_ms;
-          out.rows.push_back(row);
-          log->info("[{}/{}] N = {}, chi = {}, {}, {} thread(s): {:.3f} ms per compute", out.rows.size(), total_rows, n,
-                    chi, method, t, row.time_median_ms);
-          if (c.table)
-            print_line(*c.table, n, chi, method, t, ncells, row.time_median_ms, double(row.sub_elements),
-                       row.bytes_per_particle, row.bytes_per_cell, row.speedup, row.x_bandwidth, row.x_store, row.x_scatter,
-                       row.x_locate);
+          // One engine per particle order, each created and warmed up in turn (its memory
+          // measured alone), then timed alternately so the machine's load falls on all alike.
+          struct Timed {
+            std::unique_ptr<vfe::Engine> engine;
+            std::int64_t before_engine = -1, after_engine = -1, before_compute = -1, after_compute = -1;
+            vfe::Report rep{};
+            std::vector<double> ms;
+          };
+          std::vector<Timed> timed(orders.size());
+          for (std::size_t k = 0; k < orders.size(); ++k) {
+            Timed& e = timed[k];
+            return_free_memory();
+            e.before_engine = resident_bytes();
+            e.engine = std::make_unique<vfe::Engine>(grid);
+            e.after_engine = resident_bytes();
+            e.engine->configure(common + " method=" + method + " threads=" + std::to_string(t) +
+                                (orders[k].empty() ? "" : " particle_order=" + orders[k]));
+            return_free_memory();
+            e.before_compute = resident_bytes();
+            const auto t_warm = Clock::now();
+            e.engine->compute(view, field);
+            const double warm_ms = ms_since(t_warm);
+            e.after_compute = resident_bytes();
+            if (warm_ms > 5000)
+              log->info("{}, {} thread(s): warm-up took {:.1f} s; {} timed computes follow", method, t, warm_ms * 1e-3,
+                        c.repeats);
+            e.rep = e.engine->last_report();
+            warn_overfull(*log, scene.name + " chi=" + printf_number("%.3g", chi), method, overfull_facts(*e.engine),
+                          e.rep.particle_volume);
+          }
+          for (int i = 0; i < c.repeats; ++i)
+            for (Timed& e : timed) e.ms.push_back(time_calls(1, [&] { e.engine->compute(view, field); }).median_ms);
+          for (std::size_t k = 0; k < orders.size(); ++k) {
+            BenchRow row;
+            const vfe::Engine& engine = *timed[k].engine;
+            const vfe::Report& rep = timed[k].rep;
+            const std::int64_t before_engine = timed[k].before_engine, after_engine = timed[k].after_engine;
+            const std::int64_t before_compute = timed[k].before_compute, after_compute = timed[k].after_compute;
+            const Timing timing{median(timed[k].ms), *std::min_element(timed[k].ms.begin(), timed[k].ms.end())};
+            const std::string label = orders.size() > 1 ? method + "/" + orders[k] : method;
+            row.particle_order = engine.option("particle_order");
+            row.ordered_blocks = std::int64_t(engine.last_report_value("ordered_blocks"));
+            const bool have_memory = before_engine >= 0 && before_compute >= 0;
+            row.scene = scene.name;
+            row.order = c.order;
+            row.dispersity = scene.dispersity;
+            row.method = method;
+            row.options = engine.options();
+            row.particles = n;
+            row.chi = chi;
+            row.cell_size = h;
+            row.solid_fraction = scene.solid_fraction;
+            row.grid = grid.cells;
+            row.cells = ncells;
+            row.threads = t;
+            row.repeats = c.repeats;
+            row.time_median_ms = timing.median_ms;
+            row.time_min_ms = timing.min_ms;
+            row.particles_per_s = double(n) / (timing.median_ms * 1e-3);
+            row.sub_elements = rep.sub_elements;
+            row.sub_elements_per_s = double(rep.sub_elements) / (timing.median_ms * 1e-3);
+            row.sub_elements_per_particle = double(rep.sub_elements) / double(n);
+            row.fast_path_particles = rep.fast_path_particles;
+            row.particle_grid_min = rep.particle_grid_min;
+            row.particle_grid_max = rep.particle_grid_max;
+            row.volume_error = std::abs(rep.deposited_volume + rep.dropped_volume - rep.particle_volume) /
+                               rep.particle_volume;
+            row.engine_bytes = have_memory ? after_engine - before_engine : -1;
+            row.compute_bytes = have_memory ? after_compute - before_compute : -1;
+            row.bytes_per_cell = have_memory ? double(row.engine_bytes) / double(ncells) : kNaN;
+            row.bytes_per_particle = have_memory ? double(row.compute_bytes) / double(n) : kNaN;
+            row.peak_rss_bytes = peak_resident_bytes();
+            row.speedup = kNaN;
+            for (const BenchRow& one : out.rows)
+              if (t != 1 && one.threads == 1 && one.particles == n && one.chi == chi && one.method == method &&
+                  one.particle_order == row.particle_order)
+                row.speedup = one.time_median_ms / row.time_median_ms;
+            row.bandwidth_ms = limit.bandwidth_ms;
+            row.store_ms = limit.store_ms;
+            row.scatter_ms = limit.scatter_ms;
+            row.locate_ms = limit.locate_ms;
+            row.x_bandwidth = row.time_median_ms / limit.bandwidth_ms;
+            row.x_store = row.time_median_ms / limit.store_ms;
+            row.x_scatter = row.time_median_ms / limit.scatter_ms;
+            row.x_locate = row.time_median_ms / limit.locate_ms;
+            out.rows.push_back(row);
+            log->info("[{}/{}] N = {}, chi = {}, {}, {} thread(s): {:.3f} ms per compute", out.rows.size(), total_rows,
+                      n, chi, label, t, row.time_median_ms);
+            if (c.table)
+              print_line(*c.table, n, chi, label, t, ncells, row.time_median_ms, double(row.sub_elements),
+                         row.bytes_per_particle, row.bytes_per_cell, row.speedup, row.x_bandwidth, row.x_store,
+                         row.x_scatter, row.x_locate);
+          }
         }
       }
     }
@@ -793,6 +827,10 @@ CliCommand register_bench(CLI::App& app) {
   bench->add_option("--method", args->bench_cmd.methods, "Engine methods, a list (default direct,pmm,exact), or all")->delimiter(',');
   bench->add_option("--particle-grid", args->bench_cmd.particle_grid, "pmm's particle_grid: auto or a count")
       ->capture_default_str();
+  bench->add_option("--particle-order", args->bench_cmd.particle_orders,
+                    "The engine's particle_order, a list (e.g. input,blocked): one engine each, timed alternately "
+                    "(default: the engine's default, auto)")
+      ->delimiter(',');
   bench->add_option("--options", args->bench_cmd.options, "More engine options, \"key=value ...\" (e.g. orientation=none)");
   bench->add_option("-r,--repeats", args->bench_cmd.repeats, "Timed computes after one warm-up (the median is reported)")
       ->capture_default_str();

@@ -30,6 +30,7 @@ struct BenchCommand {
   std::vector<std::string> methods{"direct", "pmm", "exact"};  ///< engine methods; {"all"} = every engine method
   std::string particle_grid = "auto";
   std::string options;             ///< more engine options, "key=value ..."
+  std::vector<std::string> particle_orders;  ///< engine particle_order values, timed alternately; empty: the default
   int repeats = 3;                 ///< timed computes after one warm-up (the median is reported)
   std::uint64_t seed = 1;
   bool limits = true;  ///< also measure the bandwidth and locate limits
@@ -65,6 +66,8 @@ struct BenchRow {
   std::string scene, dispersity, method;
   std::string order;    ///< shuffled or morton
   std::string options;  ///< the engine's full option string
+  std::string particle_order;      ///< the engine's particle_order option
+  std::int64_t ordered_blocks = 0; ///< the report fact: slabs the particles were ordered by (0: the host's order)
   std::int64_t particles = 0;
   double chi = 0, cell_size = 0, solid_fraction = 0;
   std::array<std::int64_t, 3> grid{0, 0, 0};

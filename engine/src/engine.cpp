@@ -6,6 +6,7 @@
 
 #include "accumulator.hpp"
 #include "engine_mesh.hpp"
+#include "methods/exact.hpp"
 #include "methods/hybrid.hpp"
 #include "methods/lattice.hpp"
 #include "methods/registry.hpp"
@@ -13,6 +14,7 @@
 #include "options.hpp"
 #include "particle_grid.hpp"
 #include "particle_arrays.hpp"
+#include "particle_order.hpp"
 #include "shape_spec.hpp"
 #include "smoothing.hpp"
 
@@ -134,6 +136,9 @@ struct Engine::Impl {
   std::vector<double> smoothed;
   std::unique_ptr<detail::FaceGraph> faces;
   std::atomic<bool> busy{false};
+  detail::BlockedOrder blocked_order;  ///< particle_order: the copy in cell-block order
+  std::int64_t arranged_blocks = 0;    ///< slabs this compute orders the particles by (0: the host's order)
+  std::int64_t ordered_blocks = 0;     ///< the same, of the last successful compute
 
   // --- shapes ---------------------------------------------------------------------------
 
@@ -495,7 +500,7 @@ struct Engine::Impl {
             __builtin_prefetch(pa.centres + (p + 16) * pa.centres_stride);
             __builtin_prefetch(pa.radii + (p + 16) * pa.radii_stride);
             const double radius = pa.radius(p);
-            part.index = p;
+            part.index = pa.host(p);
             part.centre = pa.centre(p);
             part.radius = radius;
             part.volume = sphere_volume(radius);
@@ -511,6 +516,45 @@ struct Engine::Impl {
               detail::pmm_particle(ctx, s, particle(pa, p));
             for (const Deposit& d : s.deposits) add(d.cell, d.volume);
           }
+        });
+      });
+      return 0;
+    });
+  }
+
+  /// exact on a Cartesian grid (no periodic axis) with spheres and private fields: a sphere
+  /// whose cells lie in the grid, at most two per axis, adds its parts straight into the
+  /// thread's field (methods/exact.hpp, exact_sphere_quick); any other goes through the
+  /// driver. The same cells and volumes as the general loop.
+  bool fuses_exact(const ParticleArrays& pa, const detail::AccumulationPlan& pl) const {
+    return opts.method == Method::exact && mesh.kind() == MeshKind::cartesian && !pa.shape_ids && !mesh.periodic() &&
+           pl.strategy == Accumulation::privatised && !pl.uses_blocks() && !pl.touched_only;
+  }
+
+  void fused_exact(const ParticleArrays& pa, const detail::AccumulationPlan& pl, const detail::TemplateBank& bank) {
+    const detail::Context ctx{detail::MethodContext{opts, bank, divided}, *mesh.cartesian()};
+    private_field_pass(pa, pl, [&](Scratch& s, auto&& add, const tbb::blocked_range<std::int64_t>& r) {
+      for (std::int64_t p = r.begin(); p < r.end(); ++p) {
+        const double radius = pa.radius(p);
+        const detail::Particle part{p, pa.centre(p), radius, sphere_volume(radius), nullptr, 0};
+        if (detail::exact_sphere_quick(ctx, s, part, add)) continue;
+        s.deposits.clear();
+        detail::exact_particle(ctx, s, particle(pa, p));
+        for (const Deposit& d : s.deposits) add(d.cell, d.volume);
+      }
+    });
+  }
+
+  /// Phase 1 by a pass of the caller's own over the particles (blocks of 256 on the
+  /// engine's threads), adding straight into each thread's private field:
+  /// body(scratch, add, block) with add(cell, volume). The frame of the fused passes.
+  template <class Body>
+  void private_field_pass(const ParticleArrays& pa, const detail::AccumulationPlan& pl, Body&& body) {
+    acc.deposit_private(pl, pa.n, [&](auto&& thread_field) {
+      arena->execute([&] {
+        tbb::parallel_for(tbb::blocked_range<std::int64_t>(0, pa.n, 256), [&](const tbb::blocked_range<std::int64_t>& r) {
+          double* const field = thread_field();
+          body(scratch.local(), [field](std::int64_t cell, double v) { field[cell] += v; }, r);
         });
       });
       return 0;
@@ -544,7 +588,8 @@ struct Engine::Impl {
 
   // --- the compute ----------------------------------------------------------------------
 
-  void compute(const ParticleArrays& pa, std::span<double> out) {
+  void compute(const ParticleArrays& host, std::span<double> out) {
+    const ParticleArrays pa = arranged(host);  // the host's arrays, or a copy in cell-block order
     const std::int64_t ncell = mesh.cell_count();
     if (static_cast<std::int64_t>(out.size()) != ncell)
       throw Error(VFE_ERROR_INVALID_ARGUMENT, "output has " + std::to_string(out.size()) +
@@ -574,9 +619,11 @@ struct Engine::Impl {
 
     const detail::MethodDrivers& drivers = detail::method_drivers(opts.method);
     const detail::MethodContext common{opts, bank, divided};
+    const bool fused_exact_pass = !fused && fuses_exact(pa, pl);
+    if (fused_exact_pass) fused_exact(pa, pl, bank);
     const bool fused_particles = !fused && fuses_pmm(pa, pl);
     if (fused_particles) fused_pmm(pa, pl, bank);
-    if (!fused && !fused_particles) switch (mesh.kind()) {
+    if (!fused && !fused_particles && !fused_exact_pass) switch (mesh.kind()) {
       case MeshKind::cartesian:
         run(detail::Context{common, *mesh.cartesian()}, drivers.cartesian, pa, pl);
         break;
@@ -605,7 +652,7 @@ struct Engine::Impl {
     }
     Report rep;
     try {
-      rep = gather_report(pa, v.volume);  // throws the outside=error failure
+      rep = gather_report(host, v.volume);  // throws the outside=error failure, naming the host's particle
     } catch (...) {
       acc.abandon();
       throw;
@@ -641,11 +688,29 @@ struct Engine::Impl {
     counted_particles = 0;
     for (const Scratch& sc : scratch) counted_particles += sc.counted;
     fused_pass = fused;  // validation and deposits in one pass
+    ordered_blocks = arranged_blocks;
     std::copy(field().begin(), field().end(), out.begin());
     if (log->should_log(spdlog::level::info))  // the note allocates: steady-state computes must not
       log->info("computed {} particles with {} on a {}{}: {} moved, {} sub-elements, {} on the fast path, {} outside",
                 pa.n, to_string(opts.method), mesh.kind_name(), lattice_note(), acc.moved(), rep.sub_elements,
                 rep.fast_path_particles, rep.outside_particles);
+  }
+
+  /// particle_order: pa, or a copy of it in slabs of the field (particle_order.hpp) where
+  /// that may pay (arranged_blocks: how many). Null arrays and n <= 0, which compute
+  /// refuses next, leave pa as it is.
+  ParticleArrays arranged(const ParticleArrays& pa) {
+    const std::int64_t layers = mesh.cartesian()     ? mesh.cartesian()->cells()[2]
+                                : mesh.rectilinear() ? mesh.rectilinear()->cells()[2]
+                                                     : 0;
+    arranged_blocks = pa.n > 0 && pa.centres && pa.radii
+                          ? detail::order_blocks(opts, pa, mesh.kind() == MeshKind::cartesian, mesh.cell_count(), layers)
+                          : 0;
+    if (arranged_blocks == 0) return pa;
+    const Eigen::AlignedBox3d box = mesh.bounds();
+    const ParticleArrays out = blocked_order.arrange(*arena, pa, box.min()[2], box.max()[2], arranged_blocks);
+    if (!out.host_index) arranged_blocks = 0;  // a bad particle: validation names it
+    return out;
   }
 
   /// How the polyMesh's box lattice served this compute ("" when it did not).
@@ -666,7 +731,7 @@ struct Engine::Impl {
   /// Particle p as the drivers see it.
   detail::Particle particle(const ParticleArrays& pa, std::int64_t p) const {
     const double r = pa.radius(p);
-    detail::Particle part{p, mesh.wrap(pa.centre(p)), r, 0.0, pa.orientation(p), pa.rotation_key(p)};
+    detail::Particle part{pa.host(p), mesh.wrap(pa.centre(p)), r, 0.0, pa.orientation(p), pa.rotation_key(p)};
     if (pa.shape_ids && !shapes[pa.shape_id(p)].is_sphere) {
       const RegisteredShape& sh = shapes[pa.shape_id(p)];
       part.volume = sh.shape.volume() * r * r * r;
@@ -1161,6 +1226,7 @@ double Engine::last_report_value(std::string_view key) const {
       {"overfull_volume", impl_->overfull_volume},
       {"counted_particles", double(impl_->counted_particles)},
       {"fused_pass", impl_->fused_pass ? 1.0 : 0.0},
+      {"ordered_blocks", double(impl_->have_field ? impl_->ordered_blocks : 0)},
       {"lattice_cells", impl_->mesh.lattice() ? double(impl_->mesh.cell_count()) : 0.0},
       {"lattice_particles", double(impl_->have_field ? impl_->lattice_particles : 0)},
       {"auto_fast", double(impl_->have_field ? impl_->auto_paths[0] : 0)},

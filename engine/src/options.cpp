@@ -104,6 +104,8 @@ constexpr std::pair<const char*, Outside> kOutside[] = {
 constexpr std::pair<const char*, Accumulation> kAccumulation[] = {
     {"auto", Accumulation::automatic}, {"private", Accumulation::privatised},
     {"atomic", Accumulation::atomic}, {"sorted", Accumulation::sorted}};
+constexpr std::pair<const char*, ParticleOrder> kParticleOrders[] = {
+    {"auto", ParticleOrder::automatic}, {"input", ParticleOrder::input}, {"blocked", ParticleOrder::blocked}};
 constexpr const char* kLogLevels[] = {"trace", "debug", "info", "warn", "error", "off"};
 
 std::string print_bool(bool b) { return b ? "1" : "0"; }
@@ -206,6 +208,9 @@ const OptionSpec kOptions[] = {
     {"smoothing_length",
      [](Options& o, std::string_view k, std::string_view v) { o.smoothing_length = parse_double(k, v, 0.0, 1e30); },
      [](const Options& o) { return number_text(o.smoothing_length); }},
+    {"particle_order",
+     [](Options& o, std::string_view k, std::string_view v) { o.particle_order = parse_enum(k, v, kParticleOrders); },
+     [](const Options& o) { return std::string(name_of(o.particle_order, kParticleOrders)); }},
 };
 
 const OptionSpec* find_option(std::string_view key) {

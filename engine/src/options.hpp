@@ -16,6 +16,8 @@ enum class TemplateFamily { spherical, fibonacci, voxel };
 enum class Orientation { random, given, none };
 enum class Outside { nearest, centre, drop, error };
 enum class Accumulation { automatic, privatised, atomic, sorted };
+/// automatic: blocked where it pays (particle_order.hpp), input: the host's order.
+enum class ParticleOrder { automatic, input, blocked };
 
 /// Side of the cube with the volume of a sphere of diameter 1: (pi / 6)^(1/3).
 inline constexpr double kVolumeCube = 0.80599597700823482;
@@ -68,6 +70,8 @@ struct Options {
   bool weights = false;
   /// Length of the conservative diffusion of the solid volume over the face graph; 0 = off.
   double smoothing_length = 0;
+  /// blocked: compute a copy of the spheres bucketed by slabs of the field (particle_order.hpp).
+  ParticleOrder particle_order = ParticleOrder::automatic;
 };
 
 /// Applies "key=value ..." on top of base; throws Error (invalid argument naming the key,

@@ -25,6 +25,10 @@ struct ParticleArrays {
   std::int64_t shape_ids_stride = 4;
   const char* ids = nullptr;           ///< int64 host ids, or null
   std::int64_t ids_stride = 8;
+  /// int64 index of each particle in the host's arrays, or null (the same order): set
+  /// when the engine computes a copy in another order (particle_order.hpp).
+  const char* host_index = nullptr;
+  std::int64_t host_index_stride = 8;
 
   Eigen::Vector3d centre(std::int64_t p) const {
     const double* c = reinterpret_cast<const double*>(centres + p * centres_stride);
@@ -36,6 +40,10 @@ struct ParticleArrays {
   }
   std::int32_t shape_id(std::int64_t p) const {
     return *reinterpret_cast<const std::int32_t*>(shape_ids + p * shape_ids_stride);
+  }
+  /// The host's index of particle p: what errors, rotations and drivers call it.
+  std::int64_t host(std::int64_t p) const {
+    return host_index ? *reinterpret_cast<const std::int64_t*>(host_index + p * host_index_stride) : p;
   }
   /// The key of orientation=random: the host's id when given, else the index.
   std::uint64_t rotation_key(std::int64_t p) const {

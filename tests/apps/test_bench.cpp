@@ -151,6 +151,43 @@ TEST(Bench, BadArgumentsAreNamed) {
   EXPECT_NE(error_of(c).find("--threads"), std::string::npos);
 }
 
+TEST(Bench, ParticleOrdersAreTimedSideBySide) {
+  test::TempDir dir;
+  BenchCommand c = tiny_command(dir / "bench");
+  c.chi = {2};
+  c.methods = {"pmm", "exact"};
+  c.particle_orders = {"input", "blocked"};
+  c.repeats = 2;
+  c.limits = false;
+  const BenchOutcome out = run_bench(c);
+  ASSERT_EQ(out.rows.size(), 4u);  // per method, one row per order
+  for (std::size_t i = 0; i < out.rows.size(); ++i) {
+    const BenchRow& r = out.rows[i];
+    SCOPED_TRACE(r.method + " " + r.particle_order);
+    EXPECT_EQ(r.method, i < 2 ? "pmm" : "exact");
+    EXPECT_EQ(r.particle_order, i % 2 ? "blocked" : "input");
+    EXPECT_NE(r.options.find("particle_order=" + r.particle_order), std::string::npos);
+    EXPECT_EQ(r.ordered_blocks > 0, r.particle_order == "blocked");
+    EXPECT_EQ(r.repeats, 2);
+    EXPECT_GT(r.time_median_ms, 0);
+    EXPECT_LT(r.volume_error, 1e-12);
+  }
+  // The same scene, the same sub-elements, in either order.
+  EXPECT_EQ(out.rows[0].sub_elements, out.rows[1].sub_elements);
+  EXPECT_NE(test::read_text(out.output / "bench.csv").find("particle_order"), std::string::npos);
+  // --options may not set what --particle-order sets; alone it may.
+  c.options = "particle_order=input";
+  EXPECT_NE(error_of(c).find("--particle-order"), std::string::npos);
+  c.particle_orders = {"sideways"};
+  c.options.clear();
+  EXPECT_NE(error_of(c).find("--particle-order"), std::string::npos);
+  c.particle_orders.clear();
+  c.options = "particle_order=blocked";
+  const BenchOutcome alone = run_bench(c);
+  ASSERT_EQ(alone.rows.size(), 2u);
+  EXPECT_EQ(alone.rows[0].particle_order, "blocked");
+}
+
 TEST(Bench, AllIsEveryEngineMethod) {
   test::TempDir dir;
   BenchCommand c = tiny_command(dir / "bench");
