@@ -472,7 +472,7 @@ struct Engine::Impl {
   }
 
   /// pmm on a Cartesian grid (no periodic axis) with spheres and private fields: each
-  /// particle's fast path or octant count (methods/driver.hpp, pmm_sphere_quick) adds
+  /// particle's fast path or octant count (methods/driver.hpp, PmmQuick) adds
   /// straight into the thread's field; a particle that takes neither goes through the
   /// driver. The same cells as the general loop, with less per particle around them.
   /// method=auto takes the same pass with its own quick case (methods/hybrid.hpp).
@@ -485,6 +485,7 @@ struct Engine::Impl {
 
   void fused_pmm(const ParticleArrays& pa, const detail::AccumulationPlan& pl, const detail::TemplateBank& bank) {
     const detail::Context ctx{detail::MethodContext{opts, bank, divided}, *mesh.cartesian()};
+    const detail::PmmQuick quick(ctx);
     acc.deposit_private(pl, pa.n, [&](auto&& thread_field) {
       arena->execute([&] {
         tbb::parallel_for(tbb::blocked_range<std::int64_t>(0, pa.n, 256), [&](const tbb::blocked_range<std::int64_t>& r) {
@@ -492,12 +493,21 @@ struct Engine::Impl {
           double* const field = thread_field();
           auto add = [field](std::int64_t cell, double v) { field[cell] += v; };
           const bool hybrid = opts.method == Method::automatic;
+          // One particle record for the range, its per-particle fields set in the loop
+          // (building a whole record per particle costs as much as a quick case).
+          detail::Particle part{0, Eigen::Vector3d::Zero(), 0.0, 0.0, nullptr, 0};
           for (std::int64_t p = r.begin(); p < r.end(); ++p) {
             __builtin_prefetch(pa.centres + (p + 16) * pa.centres_stride);
             __builtin_prefetch(pa.radii + (p + 16) * pa.radii_stride);
             const double radius = pa.radius(p);
-            detail::Particle part{pa.host(p), pa.centre(p), radius, sphere_volume(radius), nullptr, pa.rotation_key(p)};
-            if (hybrid ? detail::auto_sphere_quick(ctx, s, part, add) : detail::pmm_sphere_quick(ctx, s, part, add))
+            part.index = pa.host(p);
+            part.centre = pa.centre(p);
+            part.radius = radius;
+            part.volume = sphere_volume(radius);
+            part.rotation_key = pa.rotation_key(p);
+            // An octant without sub-elements may add 0.0: a cell of the private field stays as it is.
+            if (hybrid ? detail::auto_sphere_quick(quick, s, part, add)
+                       : quick(s, part, add, detail::PmmQuick::EmptyOctants::add_zero))
               continue;
             s.deposits.clear();
             if (hybrid)
