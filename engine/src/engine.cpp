@@ -6,6 +6,7 @@
 
 #include "accumulator.hpp"
 #include "engine_mesh.hpp"
+#include "methods/exact.hpp"
 #include "methods/hybrid.hpp"
 #include "methods/lattice.hpp"
 #include "methods/registry.hpp"
@@ -465,7 +466,7 @@ struct Engine::Impl {
   }
 
   /// pmm on a Cartesian grid (no periodic axis) with spheres and private fields: each
-  /// particle's fast path or octant count (methods/driver.hpp, pmm_sphere_quick) adds
+  /// particle's fast path or octant count (methods/driver.hpp, PmmQuick) adds
   /// straight into the thread's field; a particle that takes neither goes through the
   /// driver. The same cells as the general loop, with less per particle around them.
   /// method=auto takes the same pass with its own quick case (methods/hybrid.hpp).
@@ -478,6 +479,7 @@ struct Engine::Impl {
 
   void fused_pmm(const ParticleArrays& pa, const detail::AccumulationPlan& pl, const detail::TemplateBank& bank) {
     const detail::Context ctx{detail::MethodContext{opts, bank, divided}, *mesh.cartesian()};
+    const detail::PmmQuick quick(ctx);
     acc.deposit_private(pl, pa.n, [&](auto&& thread_field) {
       arena->execute([&] {
         tbb::parallel_for(tbb::blocked_range<std::int64_t>(0, pa.n, 256), [&](const tbb::blocked_range<std::int64_t>& r) {
@@ -485,12 +487,21 @@ struct Engine::Impl {
           double* const field = thread_field();
           auto add = [field](std::int64_t cell, double v) { field[cell] += v; };
           const bool hybrid = opts.method == Method::automatic;
+          // One particle record for the range, its per-particle fields set in the loop
+          // (building a whole record per particle costs as much as a quick case).
+          detail::Particle part{0, Eigen::Vector3d::Zero(), 0.0, 0.0, nullptr, 0};
           for (std::int64_t p = r.begin(); p < r.end(); ++p) {
             __builtin_prefetch(pa.centres + (p + 16) * pa.centres_stride);
             __builtin_prefetch(pa.radii + (p + 16) * pa.radii_stride);
             const double radius = pa.radius(p);
-            detail::Particle part{pa.host(p), pa.centre(p), radius, sphere_volume(radius), nullptr, pa.rotation_key(p)};
-            if (hybrid ? detail::auto_sphere_quick(ctx, s, part, add) : detail::pmm_sphere_quick(ctx, s, part, add))
+            part.index = pa.host(p);
+            part.centre = pa.centre(p);
+            part.radius = radius;
+            part.volume = sphere_volume(radius);
+            part.rotation_key = pa.rotation_key(p);
+            // An octant without sub-elements may add 0.0: a cell of the private field stays as it is.
+            if (hybrid ? detail::auto_sphere_quick(quick, s, part, add)
+                       : quick(s, part, add, detail::PmmQuick::EmptyOctants::add_zero))
               continue;
             s.deposits.clear();
             if (hybrid)
@@ -499,6 +510,47 @@ struct Engine::Impl {
               detail::pmm_particle(ctx, s, particle(pa, p));
             for (const Deposit& d : s.deposits) add(d.cell, d.volume);
           }
+        });
+      });
+      return 0;
+    });
+  }
+
+  /// exact on a Cartesian grid (no periodic axis) with spheres and private fields: a sphere
+  /// whose cells lie in the grid, at most two per axis, adds its parts straight into the
+  /// thread's field (methods/exact.hpp, exact_sphere_quick); any other goes through the
+  /// driver. The same cells and volumes as the general loop.
+  bool fuses_exact(const ParticleArrays& pa, const detail::AccumulationPlan& pl) const {
+    return opts.method == Method::exact && mesh.kind() == MeshKind::cartesian && !pa.shape_ids && !mesh.periodic() &&
+           pl.strategy == Accumulation::privatised && !pl.uses_blocks() && !pl.touched_only;
+  }
+
+  void fused_exact(const ParticleArrays& pa, const detail::AccumulationPlan& pl, const detail::TemplateBank& bank) {
+    const detail::Context ctx{detail::MethodContext{opts, bank, divided}, *mesh.cartesian()};
+    private_field_pass(pa, pl, [&](Scratch& s, auto&& add, const tbb::blocked_range<std::int64_t>& r) {
+      for (std::int64_t p = r.begin(); p < r.end(); ++p) {
+        const double radius = pa.radius(p);
+        // A sphere needs no rotation key; its index is the host's (particle_order may have
+        // arranged the arrays).
+        const detail::Particle part{pa.host(p), pa.centre(p), radius, sphere_volume(radius), nullptr, 0};
+        if (detail::exact_sphere_quick(ctx, s, part, add)) continue;
+        s.deposits.clear();
+        detail::exact_particle(ctx, s, particle(pa, p));
+        for (const Deposit& d : s.deposits) add(d.cell, d.volume);
+      }
+    });
+  }
+
+  /// Phase 1 by a pass of the caller's own over the particles (blocks of 256 on the
+  /// engine's threads), adding straight into each thread's private field:
+  /// body(scratch, add, block) with add(cell, volume). The frame of the fused passes.
+  template <class Body>
+  void private_field_pass(const ParticleArrays& pa, const detail::AccumulationPlan& pl, Body&& body) {
+    acc.deposit_private(pl, pa.n, [&](auto&& thread_field) {
+      arena->execute([&] {
+        tbb::parallel_for(tbb::blocked_range<std::int64_t>(0, pa.n, 256), [&](const tbb::blocked_range<std::int64_t>& r) {
+          double* const field = thread_field();
+          body(scratch.local(), [field](std::int64_t cell, double v) { field[cell] += v; }, r);
         });
       });
       return 0;
@@ -563,9 +615,11 @@ struct Engine::Impl {
 
     const detail::MethodDrivers& drivers = detail::method_drivers(opts.method);
     const detail::MethodContext common{opts, bank, divided};
+    const bool fused_exact_pass = !fused && fuses_exact(pa, pl);
+    if (fused_exact_pass) fused_exact(pa, pl, bank);
     const bool fused_particles = !fused && fuses_pmm(pa, pl);
     if (fused_particles) fused_pmm(pa, pl, bank);
-    if (!fused && !fused_particles) switch (mesh.kind()) {
+    if (!fused && !fused_particles && !fused_exact_pass) switch (mesh.kind()) {
       case MeshKind::cartesian:
         run(detail::Context{common, *mesh.cartesian()}, drivers.cartesian, pa, pl);
         break;

@@ -177,39 +177,32 @@ ParticleTemplate make_voxel_template(int n) {
 
 namespace {
 
-constexpr std::size_t kBank = 4096;
-
 const std::vector<Eigen::Matrix3d>& rotation_bank() {
   static const std::vector<Eigen::Matrix3d> bank = [] {
-    std::vector<Eigen::Matrix3d> b(kBank);
-    for (std::size_t i = 0; i < kBank; ++i) b[i] = random_rotation(i, 0x243F6A8885A308D3ull);
+    std::vector<Eigen::Matrix3d> b(kRotationBankSize);
+    for (std::size_t i = 0; i < kRotationBankSize; ++i) b[i] = random_rotation(i, 0x243F6A8885A308D3ull);
     return b;
   }();
   return bank;
 }
 
-/// The bank slot of (index, seed): a hash, so neighbouring indices get unrelated rotations.
-std::size_t bank_slot(std::uint64_t index, std::uint64_t seed) {
-  std::uint64_t z = index * 0x9E3779B97F4A7C15ull + seed * 0xD1B54A32D192ED03ull + 0x632BE59BD9B4E019ull;
-  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-  z ^= z >> 31;
-  return static_cast<std::size_t>(z & (kBank - 1));
-}
-
 }  // namespace
 
 const Eigen::Matrix3d& banked_random_rotation(std::uint64_t index, std::uint64_t seed) {
-  return rotation_bank()[bank_slot(index, seed)];
+  return rotation_bank()[rotation_bank_slot(index, seed)];
+}
+
+const float* banked_rotation_rows_table() {
+  static const std::vector<float> rows = [] {
+    std::vector<float> r(9 * kRotationBankSize);
+    for (std::size_t i = 0; i < kRotationBankSize; ++i) rotation_rows(rotation_bank()[i], r.data() + 9 * i);
+    return r;
+  }();
+  return rows.data();
 }
 
 const float* banked_random_rotation_rows(std::uint64_t index, std::uint64_t seed) {
-  static const std::vector<float> rows = [] {
-    std::vector<float> r(9 * kBank);
-    for (std::size_t i = 0; i < kBank; ++i) rotation_rows(rotation_bank()[i], r.data() + 9 * i);
-    return r;
-  }();
-  return rows.data() + 9 * bank_slot(index, seed);
+  return banked_rotation_rows_table() + 9 * rotation_bank_slot(index, seed);
 }
 
 // Built for AVX2 + FMA as well as the baseline; the loader picks the one the CPU runs.

@@ -43,6 +43,10 @@
 #include <cstddef>
 #include <numbers>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 namespace vfe::kernels {
 namespace {
 
@@ -52,34 +56,50 @@ constexpr double kUnitBallVolume = 4.0 * std::numbers::pi / 3.0;
 /// Threshold value meaning "no bound on this axis".
 constexpr double kUnbounded = -1.0;
 
-/// atan(num / den) for num, den >= 0 (not both 0), with an absolute error below
+// max(x, 0), min(x, y) and "x where d > 0, else 0" without a branch. The exact method meets
+// both sides of these at random from sphere to sphere, and GCC compiles the plain
+// std::max(x, 0.0) or d > 0 ? x : 0 feeding arithmetic into branches it then mispredicts.
+#if defined(__SSE2__)
+inline double positive_part(double x) { return _mm_cvtsd_f64(_mm_max_sd(_mm_set_sd(x), _mm_setzero_pd())); }
+inline double smaller(double x, double y) { return _mm_cvtsd_f64(_mm_min_sd(_mm_set_sd(x), _mm_set_sd(y))); }
+inline double where_positive(double d, double x) {
+  return _mm_cvtsd_f64(_mm_and_pd(_mm_cmpgt_sd(_mm_set_sd(d), _mm_setzero_pd()), _mm_set_sd(x)));
+}
+#else
+inline double positive_part(double x) { return x > 0.0 ? x : 0.0; }
+inline double smaller(double x, double y) { return x < y ? x : y; }
+inline double where_positive(double d, double x) { return d > 0.0 ? x : 0.0; }
+#endif
+
+// ratio_angle's atan(k/8) (k = 0..8) then pi/2 - atan(k/8), as unevaluated sums hi + lo.
+constexpr double kAngleHi[18] = {
+    0x0p+0,               0x1.fd5ba9aac2f6ep-4, 0x1.f5b75f92c80ddp-3,
+    0x1.6f61941e4def1p-2, 0x1.dac670561bb4fp-2, 0x1.1e00babdefeb4p-1,
+    0x1.4978fa3269ee1p-1, 0x1.700a7c5784634p-1, 0x1.921fb54442d18p-1,
+    0x1.921fb54442d18p+0, 0x1.7249faa996a21p+0, 0x1.5368c951e9cfdp+0,
+    0x1.3647503caf55cp+0, 0x1.1b6e192ebbe44p+0, 0x1.031f57e54adbep+0,
+    0x1.dac670561bb4fp-1, 0x1.b434ee31013fdp-1, 0x1.921fb54442d18p-1};
+constexpr double kAngleLo[18] = {
+    0x0p+0,                -0x1.cd37686760c17p-59, 0x1.8ab6e3cf7afbdp-57,
+    -0x1.c63aae6f6e918p-56, 0x1.a2b7f222f65e2p-56,  -0x1.928df287a668fp-58,
+    0x1.2419a87f2a458p-56,  -0x1.8c34d25aadef6p-56, 0x1.1a62633145c07p-55,
+    0x1.1a62633145c07p-54,  0x1.a8cc1e7480c68p-54, -0x1.96f47948a99f1p-54,
+    0x1.17e21d9a42c9ap-55,  0x1.b1b466a88828ep-54, 0x1.338b4259c027p-54,
+    0x1.a2b7f222f65e2p-55,  -0x1.0520d0701d877p-55, 0x1.1a62633145c07p-55};
+
+/// atan(num / den) for num, den >= 0 (both 0: 0), with an absolute error below
 /// ~2e-16.  Only absolute accuracy is needed here (all angles enter sums with O(1)
 /// weights), which allows a short inline evaluation: reduce to q = min / max in [0, 1],
 /// split q around the nearest c = k/8 with atan(q) = atan(c) + atan((q - c) / (1 + qc)),
 /// |(q - c) / (1 + qc)| <= 1/16, and sum the odd Taylor series of the remainder to u^13
 /// (truncation error < 1e-19).
+/// Written without branches (selects and one table), as the exact method evaluates it 9
+/// times per sphere on data-dependent ratios whose branches the processor cannot predict.
 inline double ratio_angle(double num, double den) {
-  // atan(k/8) and pi/2 - atan(k/8), k = 0..8, as unevaluated sums hi + lo.
-  static constexpr double kAtanHi[9] = {
-      0x0p+0,               0x1.fd5ba9aac2f6ep-4, 0x1.f5b75f92c80ddp-3,
-      0x1.6f61941e4def1p-2, 0x1.dac670561bb4fp-2, 0x1.1e00babdefeb4p-1,
-      0x1.4978fa3269ee1p-1, 0x1.700a7c5784634p-1, 0x1.921fb54442d18p-1};
-  static constexpr double kAtanLo[9] = {
-      0x0p+0,                -0x1.cd37686760c17p-59, 0x1.8ab6e3cf7afbdp-57,
-      -0x1.c63aae6f6e918p-56, 0x1.a2b7f222f65e2p-56,  -0x1.928df287a668fp-58,
-      0x1.2419a87f2a458p-56,  -0x1.8c34d25aadef6p-56, 0x1.1a62633145c07p-55};
-  static constexpr double kAcotHi[9] = {
-      0x1.921fb54442d18p+0, 0x1.7249faa996a21p+0, 0x1.5368c951e9cfdp+0,
-      0x1.3647503caf55cp+0, 0x1.1b6e192ebbe44p+0, 0x1.031f57e54adbep+0,
-      0x1.dac670561bb4fp-1, 0x1.b434ee31013fdp-1, 0x1.921fb54442d18p-1};
-  static constexpr double kAcotLo[9] = {
-      0x1.1a62633145c07p-54,  0x1.a8cc1e7480c68p-54, -0x1.96f47948a99f1p-54,
-      0x1.17e21d9a42c9ap-55,  0x1.b1b466a88828ep-54, 0x1.338b4259c027p-54,
-      0x1.a2b7f222f65e2p-55,  -0x1.0520d0701d877p-55, 0x1.1a62633145c07p-55};
-  const bool swap = num > den;
-  const double small = swap ? den : num, large = swap ? num : den;
-  if (!(large > 0.0)) return 0.0;
-  const double q = small / large;
+  // min, max and integer selects, which compile to no branch.
+  const int swap = num > den;
+  const double small = std::min(num, den), large = std::max(num, den);
+  const double q = small / (large + double(large == 0.0));  // num = den = 0 gives 0
   const int k = static_cast<int>(8.0 * q + 0.5);
   const double c = 0.125 * k;
   const double u = (q - c) / (1.0 + q * c);
@@ -88,7 +108,41 @@ inline double ratio_angle(double num, double den) {
       u * u2 *
       (-1.0 / 3 +
        u2 * (1.0 / 5 + u2 * (-1.0 / 7 + u2 * (1.0 / 9 + u2 * (-1.0 / 11 + u2 * (1.0 / 13))))));
-  return swap ? kAcotHi[k] + (kAcotLo[k] - (u + tail)) : kAtanHi[k] + (kAtanLo[k] + (u + tail));
+  const int at = k + 9 * swap;
+  return kAngleHi[at] + (kAngleLo[at] + double(1 - 2 * swap) * (u + tail));
+}
+
+/// ratio_angle of two pairs at once, (num0, den0) into out0 and (num1, den1) into out1:
+/// with SSE2 the same operations on both lanes of a register, so the same bits as two
+/// calls at about the cost of one.
+inline void ratio_angle_pair(double num0, double den0, double num1, double den1, double& out0, double& out1) {
+#if defined(__SSE2__)
+  const __m128d num = _mm_set_pd(num1, num0), den = _mm_set_pd(den1, den0);
+  const __m128d one = _mm_set1_pd(1.0);
+  const __m128d swap = _mm_cmpgt_pd(num, den);
+  const __m128d small = _mm_min_pd(num, den), large = _mm_max_pd(num, den);
+  const __m128d q = _mm_div_pd(small, _mm_add_pd(large, _mm_and_pd(_mm_cmpeq_pd(large, _mm_setzero_pd()), one)));
+  const __m128i k = _mm_cvttpd_epi32(_mm_add_pd(_mm_mul_pd(_mm_set1_pd(8.0), q), _mm_set1_pd(0.5)));
+  const __m128d c = _mm_mul_pd(_mm_set1_pd(0.125), _mm_cvtepi32_pd(k));
+  const __m128d u = _mm_div_pd(_mm_sub_pd(q, c), _mm_add_pd(one, _mm_mul_pd(q, c)));
+  const __m128d u2 = _mm_mul_pd(u, u);
+  __m128d poly = _mm_mul_pd(u2, _mm_set1_pd(1.0 / 13));
+  for (const double coefficient : {-1.0 / 11, 1.0 / 9, -1.0 / 7, 1.0 / 5})
+    poly = _mm_mul_pd(u2, _mm_add_pd(_mm_set1_pd(coefficient), poly));
+  const __m128d tail = _mm_mul_pd(_mm_mul_pd(u, u2), _mm_add_pd(_mm_set1_pd(-1.0 / 3), poly));
+  // (u + tail) with the sign of the swapped lanes flipped: the multiply by -1 of ratio_angle.
+  const __m128d signed_sum = _mm_xor_pd(_mm_add_pd(u, tail), _mm_and_pd(swap, _mm_set1_pd(-0.0)));
+  const int swaps = _mm_movemask_pd(swap);
+  const int at0 = _mm_cvtsi128_si32(k) + 9 * (swaps & 1);
+  const int at1 = _mm_cvtsi128_si32(_mm_shuffle_epi32(k, 1)) + 9 * (swaps >> 1);
+  const __m128d hi = _mm_set_pd(kAngleHi[at1], kAngleHi[at0]), lo = _mm_set_pd(kAngleLo[at1], kAngleLo[at0]);
+  const __m128d angle = _mm_add_pd(hi, _mm_add_pd(lo, signed_sum));
+  out0 = _mm_cvtsd_f64(angle);
+  out1 = _mm_cvtsd_f64(_mm_unpackhi_pd(angle, angle));
+#else
+  out0 = ratio_angle(num0, den0);
+  out1 = ratio_angle(num1, den1);
+#endif
 }
 
 /// K(a, b, c) above, for a, b, c in [0, 1].
@@ -140,22 +194,89 @@ double unit_ball_corner(double a, double b, double c) {
   return three_k > 0.0 ? three_k / 3.0 : 0.0;
 }
 
-/// W(a, b) = |{ |p| <= 1, X >= a, Y >= b }| = 2 K(a, b, 0), for a, b in [0, 1].  With
-/// c = 0 the arc angles of K reduce to phi_a = atan2(s, b), phi_b = atan2(s, a),
-/// s = s_ab, and the edge term to ab s:
-///   3 W / 2 = pi/2 - atan2(ab, s) - [a (3 - a^2) phi_a + b (3 - b^2) phi_b] / 2 + ab s.
-double unit_ball_wedge(double a, double b) {
-  const double a2 = a * a, b2 = b * b;
-  const double d = (1.0 - a2) - b2;
-  if (!(d > 0.0)) return 0.0;
-  const double s = std::sqrt(d);
-  const double ab = a * b;
-  double arcs = 0.0;
-  if (a > 0.0) arcs += a * (3.0 - a2) * ratio_angle(s, b);
-  if (b > 0.0) arcs += b * (3.0 - b2) * ratio_angle(s, a);
-  const double exterior = ab > 0.0 ? ratio_angle(ab, s) : 0.0;
-  const double three_half_w = (0.5 * kPi - exterior) - 0.5 * arcs + ab * s;
-  return three_half_w > 0.0 ? three_half_w * (2.0 / 3.0) : 0.0;
+/// The terms of the wedge W(p, q) = |{ |x| <= 1, X_p >= p, X_q >= q }| = 2 K(p, q, 0),
+/// p, q in [0, 1]: s = sqrt(1 - p^2 - q^2), the arc angles of the planes (arc_p on X_p = p:
+/// atan2(s, q); arc_q on X_q = q: atan2(s, p)) and the exterior angle atan2(pq, s) at the
+/// vertex (p, q, s).  With c = 0 the arc angles of K reduce to these and its edge term to
+/// pq s:  3 W / 2 = pi/2 - atan2(pq, s) - [p (3 - p^2) arc_p + q (3 - q^2) arc_q] / 2 + pq s.
+/// The terms are also those of every corner K(p, q, r): see corner_from_wedges.
+/// Computed whether or not the wedge reaches the ball (then with s = 0, and every output
+/// 0): the exact method's spheres meet both cases at random, and a branch the processor
+/// cannot predict costs more than the few operations.
+struct Wedge {
+  double present = 0;  ///< 1 when 1 - p^2 - q^2 > 0, else 0 (the wedge misses the ball)
+  double s = 0, arc_p = 0, arc_q = 0, exterior = 0, volume = 0;
+};
+
+/// The wedge's root: whether it reaches the ball, and s.
+inline Wedge wedge_root(double p, double q) {
+  Wedge w;
+  const double d = (1.0 - p * p) - q * q;
+  w.present = where_positive(d, 1.0);
+  w.s = std::sqrt(positive_part(d));
+  return w;
+}
+
+/// The wedge's volume from its root and angles.
+inline void wedge_volume(double p, double q, Wedge& w) {
+  const double arcs = p * (3.0 - p * p) * w.arc_p + q * (3.0 - q * q) * w.arc_q;
+  const double three_half_w = (0.5 * kPi - w.exterior) - 0.5 * arcs + p * q * w.s;
+  w.volume = positive_part(three_half_w) * (2.0 / 3.0) * w.present;
+}
+
+inline Wedge wedge_terms(double p, double q) {
+  Wedge w = wedge_root(p, q);
+  w.arc_p = ratio_angle(w.s, q);
+  w.arc_q = ratio_angle(w.s, p);
+  w.exterior = ratio_angle(p * q, w.s);
+  wedge_volume(p, q, w);
+  return w;
+}
+
+/// W(a, b) = |{ |p| <= 1, X >= a, Y >= b }|, for a, b in [0, 1].
+double unit_ball_wedge(double a, double b) { return wedge_terms(a, b).volume; }
+
+/// K(a, b, c), a, b, c in [0, 1], from the terms of the wedges of its three pairs (x, y),
+/// (y, z), (z, x), which hold all it needs: its square roots s_ab, s_bc, s_ca are theirs,
+/// its exterior angles are theirs, and each of its arc angles is the sum of the two wedges'
+/// arcs on that plane less pi/2 (on X = a the arc runs from (b, s_ab) to (s_ca, c), at
+/// angles atan2(s_ab, b) and pi/2 - atan2(s_ca, c) from the Y axis).  So K costs no angle of
+/// its own; the difference of angles keeps the absolute accuracy of unit_ball_corner.
+/// Branch-free as wedge_terms.
+inline double corner_from_wedges(double a, double b, double c, const Wedge& xy, const Wedge& yz, const Wedge& zx) {
+  const double a2 = a * a, b2 = b * b, c2 = c * c;
+  const double d = ((1.0 - a2) - b2) - c2;
+  const double exterior = (xy.exterior + yz.exterior) + zx.exterior;
+  const double phi_a = (xy.arc_p + zx.arc_q) - 0.5 * kPi;
+  const double phi_b = (xy.arc_q + yz.arc_p) - 0.5 * kPi;
+  const double phi_c = (yz.arc_q + zx.arc_p) - 0.5 * kPi;
+  const double arcs = a * (3.0 - a2) * phi_a + b * (3.0 - b2) * phi_b + c * (3.0 - c2) * phi_c;
+  // Straight edges l_ab = s_ab - c, ...
+  const double edges = a * b * (xy.s - c) + b * c * (yz.s - a) + c * a * (zx.s - b);
+  const double three_k = (0.5 * kPi - exterior) - 0.5 * arcs + edges;
+  // A pair missing the ball while d > 0 is round-off at a corner on the sphere: K ~ 0.
+  const double reached = where_positive(d, xy.present * yz.present * zx.present);
+  return positive_part(three_k) / 3.0 * reached;
+}
+
+/// unit_ball_octants' wedges and corner when all three planes cut (v[3], v[5], v[6], v[7]).
+/// Out of line: inlined beside the one-wedge cases it makes the compiler spill.
+[[gnu::noinline]] void three_planes(const double t[3], double v[8]) {
+  const double a = t[0], b = t[1], c = t[2];
+  Wedge xy = wedge_root(a, b), yz = wedge_root(b, c), zx = wedge_root(c, a);
+  // wedge_terms' 9 angles, two at a time.
+  ratio_angle_pair(xy.s, b, xy.s, a, xy.arc_p, xy.arc_q);
+  ratio_angle_pair(yz.s, c, yz.s, b, yz.arc_p, yz.arc_q);
+  ratio_angle_pair(zx.s, a, zx.s, c, zx.arc_p, zx.arc_q);
+  ratio_angle_pair(a * b, xy.s, b * c, yz.s, xy.exterior, yz.exterior);
+  zx.exterior = ratio_angle(c * a, zx.s);
+  wedge_volume(a, b, xy);
+  wedge_volume(b, c, yz);
+  wedge_volume(c, a, zx);
+  v[3] = xy.volume;
+  v[6] = yz.volume;
+  v[5] = zx.volume;
+  v[7] = corner_from_wedges(a, b, c, xy, yz, zx);
 }
 
 /// Cap of the unit ball beyond the plane X = t, t in [0, 1].
@@ -316,6 +437,39 @@ double unit_ball_orthant_volume(double x, double y, double z) {
   if (std::isnan(x) || std::isnan(y) || std::isnan(z)) return std::nan("");
   const double v = orthant_clamped(clamp_unit(x), clamp_unit(y), clamp_unit(z));
   return std::clamp(v, 0.0, kUnitBallVolume);
+}
+
+void unit_ball_octants(double a, double b, double c, double volumes[8]) {
+  // Each axis reflected so that its plane lies at t >= 0: the far side X' >= t is then the
+  // smaller part, and v[m] below, the ball in the far sides of the axes in m (m = 0: the
+  // whole ball), is a cap, wedge or corner evaluated where it is well conditioned. A plane
+  // at |t| >= 1 (or NaN) misses the ball: t = 1 makes its cap exactly 0.
+  const double in[3] = {a, b, c};
+  double t[3];
+  unsigned flip = 0, cut = 0;
+  for (int d = 0; d < 3; ++d) {
+    const double w = std::abs(in[d]);
+    flip |= unsigned(std::signbit(in[d])) << d;
+    cut |= unsigned(w < 1.0) << d;
+    t[d] = smaller(w, 1.0);  // NaN gives 1
+  }
+  double v[8] = {kUnitBallVolume, unit_ball_cap(t[0]), unit_ball_cap(t[1]), 0.0, unit_ball_cap(t[2]), 0.0, 0.0, 0.0};
+  // One branch on which planes cut (the same for every sphere spanning 2 cells per axis);
+  // inside, none: which wedges and corners reach the ball varies at random.
+  switch (cut) {
+    case 7: three_planes(t, v); break;
+    case 3: v[3] = wedge_terms(t[0], t[1]).volume; break;
+    case 6: v[6] = wedge_terms(t[1], t[2]).volume; break;
+    case 5: v[5] = wedge_terms(t[2], t[0]).volume; break;
+    default: break;  // at most one plane: its cap
+  }
+  // Inclusion-exclusion one axis at a time: near side = ball - far side. Every
+  // intermediate value is the volume of a region, at least half of the term it is taken
+  // from (the near side holds the mirror image of the far side), so nothing cancels.
+  for (unsigned bit = 1; bit < 8; bit <<= 1)
+    for (unsigned m = 0; m < 8; ++m)
+      if (!(m & bit)) v[m] -= v[m | bit];
+  for (unsigned m = 0; m < 8; ++m) volumes[m ^ flip] = smaller(positive_part(v[m]), kUnitBallVolume);
 }
 
 double sphere_box_overlap(const Eigen::Vector3d& centre, double radius, const Eigen::Vector3d& lo,

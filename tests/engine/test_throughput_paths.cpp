@@ -58,9 +58,15 @@ TEST(PmmCounting, EveryCellEqualsLocatingEverySubElement) {
   cases.push_back({"near faces chi 1", near_face_spheres(1.0, 10, 0.5, 3000), " orientation=none particle_grid=45"});
   cases.push_back({"beyond the grid", random_spheres(13, 2000, -0.5, 10.5, 0.2, 0.4), " outside=nearest"});
   cases.push_back({"periodic", random_spheres(14, 2000, -0.5, 10.5, 0.2, 0.4), " periodic=xyz"});
+  cases.push_back({"block", random_spheres(15, 3000, 1.0, 9.0, 0.15, 0.5), ""});
+  cases.push_back({"block near faces", near_face_spheres(1.0, 10, 0.25, 3000), " orientation=none particle_grid=45"});
   for (const Case& c : cases) {
     SCOPED_TRACE(c.name);
-    Engine counting(grid(1.0, 10, 10, 10)), locating(grid(1.0, 10, 10, 10));
+    // The same box as a block of a larger grid (first_cell, one of them negative): its
+    // cells' positions come from the larger grid's indices, which the quick cases follow.
+    CartesianGridSpec spec = grid(1.0, 10, 10, 10);
+    if (std::string(c.name).starts_with("block")) spec.first_cell = {-1, 0, 2}, spec.origin = {1.0, 0, -2.0};
+    Engine counting(spec), locating(spec);
     const std::vector<double> a = run(counting, c.p, "method=pmm threads=1" + c.options);
     const std::vector<double> b = run(locating, c.p, "method=pmm threads=1 fast_path=0" + c.options);
     const double v = c.p.volume() / double(c.p.radii.size());

@@ -1,6 +1,7 @@
 // Counting sub-elements per octant against the straightforward count in double: every
-// count the float path returns must be exact, including points placed within 1e-12 of a
-// split plane (those must be refused, never miscounted).
+// count the float path returns must be exact, including points placed within 1e-12 or
+// 1e-6 of a split plane (those must be refused, never miscounted) and 2e-5 from it (those
+// float decides).
 #include <vfe/kernels/octant_split.hpp>
 
 #include <gtest/gtest.h>
@@ -29,8 +30,9 @@ class OctantSplitPaths : public ::testing::TestWithParam<vfe::kernels::SplitPath
 TEST_P(OctantSplitPaths, CountsEqualTheStraightforwardCountOnMillionsOfSubElements) {
   std::mt19937_64 rng(7);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
-  std::int64_t sub_elements = 0, refused = 0, cases = 0, near_cases = 0;
-  for (const int n : {1, 7, 35, 45, 64, 65, 130, 815}) {
+  std::int64_t sub_elements = 0, refused = 0, cases = 0, near_cases = 0, clear_cases = 0, clear_refused = 0;
+  // Every count of eight-point groups up to 64 points (each has its own code), then larger.
+  for (const int n : {1, 7, 12, 20, 29, 35, 45, 53, 64, 65, 130, 815}) {
     ParticleTemplate t = vfe::kernels::make_fibonacci_template(n);
     vfe::kernels::prepare_octant_split(t);
     ASSERT_EQ(t.split_words, (t.size() + 63) / 64);
@@ -39,22 +41,27 @@ TEST_P(OctantSplitPaths, CountsEqualTheStraightforwardCountOnMillionsOfSubElemen
       const unsigned split = 1 + static_cast<unsigned>(c % 7);
       double tau[3];
       for (int d = 0; d < 3; ++d) tau[d] = 0.9 * u(rng);
-      // One case in four puts a point within 1e-12 of the first split plane.
-      const bool near = c % 4 == 0;
-      if (near) {
-        const int d = std::countr_zero(split);
-        const Eigen::Vector3d& q = t.points[static_cast<std::size_t>(c) % t.size()];
-        tau[d] = R.row(d).dot(q) + (c % 8 == 0 ? 1e-12 : -1e-12);
-      }
+      // One case in four puts a point within 1e-12 of the first split plane, one in eight
+      // within 1e-6 (inside the guard band: refused too), one in eight 2e-5 from it
+      // (outside the band: float decides, and must decide right).
+      const bool near = c % 4 == 0, mid = c % 8 == 1, clear = c % 8 == 5;
+      const int d = std::countr_zero(split);
+      const Eigen::Vector3d& q = t.points[static_cast<std::size_t>(c) % t.size()];
+      const double side = c % 16 < 8 ? 1.0 : -1.0;
+      if (near) tau[d] = R.row(d).dot(q) + side * 1e-12;
+      if (mid) tau[d] = R.row(d).dot(q) + side * 1e-6;
+      if (clear) tau[d] = R.row(d).dot(q) + side * 2e-5;
       std::int32_t got[8], want[8];
       brute_counts(t, R, split, tau, want);
       ++cases;
-      near_cases += near;
+      near_cases += near || mid;
+      clear_cases += clear;
       if (!vfe::kernels::count_octants(t, R, split, tau, got, GetParam())) {
         ++refused;
+        clear_refused += clear;
         continue;
       }
-      EXPECT_FALSE(near) << "n = " << n << ", case " << c << ": a point 1e-12 from a plane was not refused";
+      EXPECT_FALSE(near || mid) << "n = " << n << ", case " << c << ": a point in the guard band was not refused";
       for (int o = 0; o < 8; ++o) ASSERT_EQ(got[o], want[o]) << "n = " << n << ", case " << c << ", octant " << o;
       sub_elements += n;
     }
@@ -62,6 +69,7 @@ TEST_P(OctantSplitPaths, CountsEqualTheStraightforwardCountOnMillionsOfSubElemen
   EXPECT_GT(sub_elements, 2000000);
   // Only the near cases and a few random ones go to double.
   EXPECT_LT(refused, near_cases + cases / 50) << refused << " of " << cases;
+  EXPECT_LT(clear_refused, clear_cases / 50) << "points 2e-5 from a plane sent to double";
 }
 
 INSTANTIATE_TEST_SUITE_P(OctantSplit, OctantSplitPaths,

@@ -32,6 +32,7 @@ using Eigen::Vector3d;
 using vfe::kernels::sphere_box_overlap;
 using vfe::kernels::sphere_patch_overlaps;
 using vfe::kernels::sphere_patch_overlaps_into;
+using vfe::kernels::unit_ball_octants;
 using vfe::kernels::unit_ball_orthant_volume;
 
 constexpr double kPi = std::numbers::pi;
@@ -637,6 +638,172 @@ TEST(SpherePatchOverlaps, ReusesBuffersAndFeedsTheSink) {
                         });
   EXPECT_EQ(calls, 18);
   EXPECT_NEAR(total, ball_volume(0.7), 1e-15 * ball_volume(0.7));
+}
+
+
+// ---------------------------------------------------------------------------------------
+// unit_ball_octants
+// ---------------------------------------------------------------------------------------
+
+/// The oracle's volume of part m of unit_ball_octants(a, b, c): the unit ball in the box
+/// on the upper side of plane t[d] where bit d of m is set, on the lower side otherwise.
+double oracle_octant(const std::array<double, 3>& t, unsigned m) {
+  std::array<double, 3> l{}, h{};
+  for (int d = 0; d < 3; ++d) {
+    const double at = std::clamp(t[d], -2.0, 2.0);
+    l[d] = (m >> d) & 1u ? at : -2.0;
+    h[d] = (m >> d) & 1u ? 2.0 : at;
+  }
+  return oracle_unit(l, h);
+}
+
+/// unit_ball_octants(t) against the oracle, part by part; returns the largest error / ball.
+double octants_error(const std::array<double, 3>& t) {
+  double parts[8];
+  unit_ball_octants(t[0], t[1], t[2], parts);
+  double worst = 0.0, sum = 0.0;
+  for (unsigned m = 0; m < 8; ++m) {
+    EXPECT_GE(parts[m], 0.0);
+    worst = std::max(worst, std::abs(parts[m] - oracle_octant(t, m)) / kUnitBall);
+    sum += parts[m];
+  }
+  EXPECT_NEAR(sum, kUnitBall, 2e-15 * kUnitBall) << t[0] << ' ' << t[1] << ' ' << t[2];
+  return worst;
+}
+
+TEST(UnitBallOctants, MatchesOracleOnRandomPlanes) {
+  std::mt19937_64 rng(20261202);
+  std::uniform_real_distribution<double> u(-1.15, 1.15);  // some planes miss the ball
+  double max_err = 0.0;
+  for (int it = 0; it < 250; ++it) {
+    const double err = octants_error({u(rng), u(rng), u(rng)});
+    max_err = std::max(max_err, err);
+    ASSERT_LE(err, 1e-14) << it;
+  }
+  std::cout << "octants, random: max |error| / ball = " << max_err << '\n';
+}
+
+TEST(UnitBallOctants, MatchesOracleOnSpecialPlanes) {
+  // Planes through the centre, 1e-10 from it, at the corners of inscribed cubes and
+  // squares, within 1e-7 of the surface, tangent and beyond it.
+  const double s2 = std::sqrt(0.5), s3 = std::sqrt(1.0 / 3.0);
+  const std::vector<double> values{-kInf, -1.0, -1.0 + 1e-7, -s2, -s3, -1e-10, 0.0, -0.0,
+                                   1e-10, 0.5,  s3,          s2,  0.8, 1.0 - 1e-7, 1.0, 3.0};
+  double max_err = 0.0;
+  for (double a : values)
+    for (double b : values)
+      for (double c : values) {
+        if (!(std::abs(a) <= std::abs(b) && std::abs(b) <= std::abs(c))) continue;  // the rest by symmetry
+        const double err = octants_error({a, b, c});
+        max_err = std::max(max_err, err);
+        ASSERT_LE(err, 1e-14) << a << ' ' << b << ' ' << c;
+      }
+  std::cout << "octants, special planes: max |error| / ball = " << max_err << '\n';
+}
+
+TEST(UnitBallOctants, NodesOnAndNearTheSphere) {
+  // The node where the three planes meet on the sphere (the corner part vanishes), just
+  // inside it (a tiny corner), and two planes meeting on it.
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> n01;
+  double max_err = 0.0;
+  for (int it = 0; it < 60; ++it) {
+    Vector3d p(n01(rng), n01(rng), n01(rng));
+    p.normalize();
+    if (it % 3 == 1) p *= 1.0 - std::pow(10.0, -3.0 - 0.2 * it);
+    if (it % 3 == 2) {
+      p.z() = 0.3 * n01(rng);
+      p.head<2>() *= std::sqrt(1.0 - std::min(p.z() * p.z(), 1.0)) / p.head<2>().norm();
+    }
+    const double err = octants_error({p.x(), p.y(), p.z()});
+    max_err = std::max(max_err, err);
+    ASSERT_LE(err, 1e-15 * 4) << p.transpose();
+  }
+  std::cout << "octants, nodes on the sphere: max |error| / ball = " << max_err << '\n';
+}
+
+TEST(UnitBallOctants, PlanesMissingTheBallLeaveExactZerosAndCaps) {
+  double parts[8];
+  // No plane cuts: the whole ball on the near side of each, exactly.
+  unit_ball_octants(kInf, 1.0, -kInf, parts);
+  for (unsigned m = 0; m < 8; ++m) EXPECT_EQ(parts[m], m == 4 ? kUnitBall : 0.0) << m;
+  unit_ball_octants(std::nan(""), 5.0, 1e300, parts);
+  for (unsigned m = 1; m < 8; ++m) EXPECT_EQ(parts[m] * parts[0], 0.0) << m;  // one part holds the ball
+  // One plane cuts: the parts are the cap and the rest, to the cap formula's relative
+  // accuracy however thin the cap (planes within 1e-12 of the surface included).
+  for (double t : {0.0, 0.3, 0.9, 1.0 - 1e-6, 1.0 - 1e-9, 1.0 - 1e-12, 1.0 - 0x1p-52}) {
+    for (int axis = 0; axis < 3; ++axis)
+      for (double sign : {1.0, -1.0}) {
+        double plane[3] = {kInf, -kInf, 2.0};
+        plane[axis] = sign * t;
+        unit_ball_octants(plane[0], plane[1], plane[2], parts);
+        const unsigned base = axis == 1 ? 0u : 2u;  // a Y plane at -inf: everything on its upper side
+        const unsigned far = base | (sign > 0 ? 1u << axis : 0u), near = far ^ (1u << axis);
+        const double cap = cap_volume(1.0, 1.0 - t);
+        EXPECT_NEAR(parts[far], cap, 1e-14 * cap) << t << ' ' << axis;
+        EXPECT_NEAR(parts[near], kUnitBall - cap, 1e-15 * kUnitBall) << t << ' ' << axis;
+        for (unsigned m = 0; m < 8; ++m) {
+          if (m != far && m != near) {
+            EXPECT_EQ(parts[m], 0.0);
+          }
+        }
+      }
+  }
+  // Tangent: a plane at exactly +-1 leaves its far side exactly 0.
+  unit_ball_octants(1.0, -1.0, 0.25, parts);
+  for (unsigned m = 0; m < 8; ++m) {
+    if ((m & 1) || !(m & 2)) {
+      EXPECT_EQ(parts[m], 0.0) << m;
+    }
+  }
+}
+
+TEST(UnitBallOctants, ThinCapsCutByASecondPlaneStayAccurateAgainstTheBall) {
+  // A plane 1e-4 .. 1e-12 below the surface with a second plane through the cap: the
+  // two halves come from a cap less a wedge, accurate to round-off of the ball (their
+  // relative accuracy is that of the wedge's closed form, not the cap's).
+  for (double h : {1e-4, 1e-6, 1e-8, 1e-10, 1e-12}) {
+    for (double b : {0.0, 0.3 * std::sqrt(h)}) {
+      double parts[8];
+      unit_ball_octants(1.0 - h, b, kInf, parts);
+      const double cap = cap_volume(1.0, h);
+      EXPECT_NEAR(parts[1] + parts[3], cap, 1e-15 * kUnitBall) << h;
+      EXPECT_NEAR(parts[1], oracle_octant({1.0 - h, b, kInf}, 1), 1e-15 * kUnitBall) << h << ' ' << b;
+      EXPECT_NEAR(parts[3], oracle_octant({1.0 - h, b, kInf}, 3), 1e-15 * kUnitBall) << h << ' ' << b;
+      if (b == 0.0) {
+        EXPECT_NEAR(parts[1], parts[3], 1e-15 * kUnitBall);
+      }
+    }
+  }
+}
+
+TEST(UnitBallOctants, AgreesWithBoxOverlapsAndReflections) {
+  // Each part is the overlap of the unit ball with its (large) box; mirroring a plane
+  // swaps the parts on its two sides.
+  std::mt19937_64 rng(77);
+  std::uniform_real_distribution<double> u(-1.05, 1.05);
+  double max_err = 0.0;
+  for (int it = 0; it < 5000; ++it) {
+    const double t[3] = {u(rng), u(rng), u(rng)};
+    double parts[8], mirrored[8];
+    unit_ball_octants(t[0], t[1], t[2], parts);
+    unit_ball_octants(-t[0], t[1], -t[2], mirrored);
+    for (unsigned m = 0; m < 8; ++m) {
+      Vector3d lo, hi;
+      for (int d = 0; d < 3; ++d) {
+        lo[d] = (m >> d) & 1u ? t[d] : -4.0;
+        hi[d] = (m >> d) & 1u ? 4.0 : t[d];
+      }
+      const double box = sphere_box_overlap(Vector3d::Zero(), 1.0, lo, hi);
+      max_err = std::max(max_err, std::abs(parts[m] - box));
+      ASSERT_NEAR(parts[m], box, 2e-15 * kUnitBall) << it << ' ' << m;
+      ASSERT_EQ(parts[m], mirrored[m ^ 5u]) << it << ' ' << m;
+      if (box == 0.0) {
+        ASSERT_EQ(parts[m], 0.0);
+      }
+    }
+  }
+  std::cout << "octants vs box overlaps: max |difference| / ball = " << max_err / kUnitBall << '\n';
 }
 
 }  // namespace

@@ -265,7 +265,7 @@ bool deposit_by_octants(const Context& ctx, Scratch& s, const Particle& p, const
   if (t.split_points.empty() || !ctx.opts.fast_path) return false;
   const CartesianGrid& grid = ctx.grid;
   unsigned split = 0;
-  double tau[3] = {0, 0, 0};
+  float tau[3] = {0, 0, 0};
   std::int64_t g[3][2];
   for (int d = 0; d < 3; ++d) {
     if (w.m[d] > 2) return false;
@@ -277,11 +277,11 @@ bool deposit_by_octants(const Context& ctx, Scratch& s, const Particle& p, const
       const double scale = p.radius / grid.spacing()[d];
       if (!(scale > 1e-6)) return false;  // the guard band would be below double's resolution
       split |= 1u << d;
-      tau[d] = (1.0 - base[d]) / scale;
+      tau[d] = static_cast<float>((1.0 - base[d]) / scale);
     }
   }
   std::int32_t counts[8];
-  if (!kernels::count_octants(t, rotation_rows, split, tau, counts)) return false;
+  if (!kernels::octant_counter(t).by_split[split](t, rotation_rows, tau, counts)) return false;
   ++s.counted;
   const double share = p.volume * t.fractions[0];
   for (int o = 0; o < 8; ++o)
@@ -291,45 +291,123 @@ bool deposit_by_octants(const Context& ctx, Scratch& s, const Particle& p, const
 
 /// pmm's two quick cases for a sphere whose window of cells lies in the mesh, on a grid
 /// without periodic axes: the whole template in one cell (the fast path) or in at most
-/// 2 x 2 x 2 cells, counted per octant. Adds through sink(cell, volume) and counts as
-/// deposit_points does; false, with nothing added or counted, when neither applies
-/// (pmm_particle then does the general work).
-template <class Sink>
-bool pmm_sphere_quick(const Context& ctx, Scratch& s, const Particle& p, Sink&& sink) {
-  const CartesianGrid& grid = ctx.grid;
-  if (!ctx.opts.fast_path || grid.periodic_mask()) return false;
-  const kernels::ParticleTemplate& t = ctx.template_for(p);
-  // make_window's cells, for a window inside the grid: there no clamp acts, and on a grid
-  // from the origin (not a block) the floor of each bound's coordinate (axis_index's) is
-  // its truncation.
-  const double half = p.radius * t.reach;
-  Window w;
-  for (int d = 0; d < 3; ++d) {
-    const double lo = grid.axis_coordinate(d, p.centre[d] - half), hi = grid.axis_coordinate(d, p.centre[d] + half);
-    const double first = double(grid.first(d));
-    if (!(lo >= first && hi < first + double(grid.cells()[d]))) return false;  // reaches beyond the grid (or NaN)
-    if (first == 0) {
-      w.lo[d] = static_cast<std::int64_t>(lo);
-      w.m[d] = static_cast<std::int64_t>(hi) - w.lo[d] + 1;
-    } else {
-      w.lo[d] = CartesianGrid::fast_floor(lo) - grid.first(d);
-      w.m[d] = CartesianGrid::fast_floor(hi) - grid.first(d) - w.lo[d] + 1;
+/// 2 x 2 x 2 cells, counted per octant. What every particle reads (the grid's numbers, the
+/// template when the bank has one, the counting code, the rotation bank) is gathered once,
+/// so a pass over many particles builds one and calls it per particle.
+class PmmQuick {
+ public:
+  explicit PmmQuick(const Context& ctx)
+      : ctx_(ctx),
+        single_(ctx.bank.templates.size() == 1 ? ctx.bank.templates.front() : nullptr),
+        counter_(single_ ? &kernels::octant_counter(*single_) : nullptr),
+        bank_rows_(ctx.opts.orientation == Orientation::random && ctx.opts.rotation_bank
+                       ? kernels::banked_rotation_rows_table()
+                       : nullptr),
+        seed_(ctx.opts.seed),
+        usable_(ctx.opts.fast_path && !ctx.grid.periodic_mask()),
+        from_origin_(!ctx.grid.is_block()) {
+    const CartesianGrid& grid = ctx.grid;
+    double h_max = 0;
+    for (int d = 0; d < 3; ++d) {
+      origin_[d] = grid.origin()[d];
+      inv_h_[d] = 1.0 / grid.spacing()[d];
+      h_[d] = grid.spacing()[d];
+      h_max = std::max(h_max, h_[d]);
+      first_[d] = grid.first(d);
+      lo_bound_[d] = double(first_[d]);
+      hi_bound_[d] = double(first_[d] + grid.cells()[d]);
     }
+    // Counting needs r / h_d > 1e-6 on each split axis, or the guard band would be below
+    // double's resolution; asked of every axis, it is r > 1e-6 h_max.
+    min_counted_radius_ = 1e-6 * h_max;
+    nx_ = grid.cells()[0], nxy_ = nx_ * grid.cells()[1];
+    for (unsigned o = 0; o < 8; ++o) corner_offset_[o] = (o & 1) + nx_ * ((o >> 1) & 1) + nxy_ * ((o >> 2) & 1);
   }
-  if (w.size() == 1) {
-    s.count_grid(static_cast<std::int64_t>(t.size()));
-    ++s.fast_path;
-    sink(grid.index(w.lo[0], w.lo[1], w.lo[2]), p.volume);
+
+  const Context& context() const { return ctx_; }
+
+  /// What a counted particle gives the sink for an octant it reaches without a sub-element:
+  /// nothing, or a zero volume (for a sink adding into a field, where it changes nothing and
+  /// saves a branch that often mispredicts).
+  enum class EmptyOctants { skip, add_zero };
+
+  /// Adds particle p through sink(cell, volume) and counts as deposit_points does; false,
+  /// with nothing added or counted, when neither quick case applies (pmm_particle then
+  /// does the general work).
+  template <class Sink>
+  [[gnu::always_inline]] bool operator()(Scratch& s, const Particle& p, Sink&& sink,
+                                         EmptyOctants empty = EmptyOctants::skip) const {
+    if (!usable_) return false;
+    const kernels::ParticleTemplate& t = single_ && !p.shape_template ? *single_ : ctx_.template_for(p);
+    // make_window's cells, for a window inside the grid: there no clamp acts, and on a grid
+    // from the origin (not a block) the floor of each bound's coordinate (axis_index's) is
+    // its truncation.
+    const double r = p.radius, half = r * t.reach;
+    std::int64_t lo[3];
+    std::int64_t extra = 0;  // or of the window's cells beyond the first per axis
+    unsigned two = 0;        // bit d: two cells along d (when extra <= 1)
+    for (int d = 0; d < 3; ++d) {
+      const double a = (p.centre[d] - half - origin_[d]) * inv_h_[d], b = (p.centre[d] + half - origin_[d]) * inv_h_[d];
+      if (!(a >= lo_bound_[d] && b < hi_bound_[d])) return false;  // reaches beyond the grid (or NaN)
+      std::int64_t i, j;
+      if (from_origin_) {
+        i = static_cast<std::int64_t>(a), j = static_cast<std::int64_t>(b);
+      } else {
+        i = CartesianGrid::fast_floor(a) - first_[d], j = CartesianGrid::fast_floor(b) - first_[d];
+      }
+      lo[d] = i;
+      extra |= j - i;
+      two |= unsigned(j - i) << d;
+    }
+    const std::int64_t cell = lo[0] + nx_ * lo[1] + nxy_ * lo[2];
+    const auto size = static_cast<std::int64_t>(t.size());
+    if (extra == 0) {
+      s.count_grid(size);
+      ++s.fast_path;
+      sink(cell, p.volume);
+      return true;
+    }
+    if (extra > 1 || t.split_points.empty() || !(r > min_counted_radius_)) return false;
+    // base_d + (r / h_d) R_d . q >= 1  <=>  R_d . q >= (1 - base_d) h_d / r, base_d the
+    // centre in cell units from the window's corner (deposit_points' base).
+    float tau[3];
+    const double inv_r = 1.0 / r;
+    for (int d = 0; d < 3; ++d) {
+      const double base = (p.centre[d] - origin_[d]) * inv_h_[d] - double(lo[d] + first_[d]);
+      tau[d] = static_cast<float>((1.0 - base) * h_[d] * inv_r);
+    }
+    float buffer[9];
+    const float* rows = bank_rows_ ? bank_rows_ + 9 * kernels::rotation_bank_slot(p.rotation_key, seed_)
+                                   : particle_rotation_rows(ctx_.opts, p, buffer);
+    std::int32_t counts[8];
+    const kernels::OctantCounter& counter = single_ && !p.shape_template ? *counter_ : kernels::octant_counter(t);
+    if (!counter.by_split[two](t, rows, tau, counts)) return false;
+    ++s.counted;
+    s.count_grid(size);
+    s.sub_elements += size;
+    const double share = p.volume * t.fractions[0];
+    for (unsigned o = two;; o = (o - 1) & two) {  // the octants the split axes reach
+      if (counts[o] || empty == EmptyOctants::add_zero) sink(cell + corner_offset_[o], share * double(counts[o]));
+      if (o == 0) break;
+    }
     return true;
   }
-  if (t.split_points.empty() || w.m[0] > 2 || w.m[1] > 2 || w.m[2] > 2) return false;
-  Eigen::Vector3d base;
-  for (int d = 0; d < 3; ++d) base[d] = grid.axis_coordinate(d, p.centre[d]) - double(w.lo[d] + grid.first(d));
-  float rows[9];
-  if (!deposit_by_octants(ctx, s, p, t, particle_rotation_rows(ctx.opts, p, rows), w, base, sink)) return false;
-  s.count_grid(static_cast<std::int64_t>(t.size()));
-  s.sub_elements += static_cast<std::int64_t>(t.size());
-  return true;
+
+ private:
+  const Context& ctx_;
+  const kernels::ParticleTemplate* single_;  ///< the bank's one template, or null
+  const kernels::OctantCounter* counter_;  ///< single_'s counting code
+  const float* bank_rows_;  ///< orientation=random from the bank: its float rows; else null
+  std::uint64_t seed_;
+  bool usable_, from_origin_;
+  double origin_[3], inv_h_[3], h_[3], lo_bound_[3], hi_bound_[3], min_counted_radius_;
+  std::int64_t first_[3], nx_, nxy_, corner_offset_[8];
+};
+
+/// PmmQuick for one particle (callers that meet a particle at a time).
+template <class Sink>
+bool pmm_sphere_quick(const Context& ctx, Scratch& s, const Particle& p, Sink&& sink) {
+  return PmmQuick(ctx)(s, p, sink);
 }
 
 // One function per method: the particle's deposits into s (s.deposits is empty on entry).

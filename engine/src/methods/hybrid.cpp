@@ -176,8 +176,8 @@ void grid_pmm(const Context& ctx, Scratch& s, const Particle& p) {
 }
 
 void auto_particle(const Context& ctx, Scratch& s, const Particle& p) {
-  if (!p.shaped && auto_sphere_quick(ctx, s, p, [&](std::int64_t cell, double v) { s.deposits.push_back({cell, v}); }))
-    return;
+  const auto add = [&](std::int64_t cell, double v) { s.deposits.push_back({cell, v}); };
+  if (!p.shaped && auto_sphere_quick(PmmQuick(ctx), s, p, add)) return;
   take_cheapest(ctx, s, p, grid_pmm, exact_particle);
 }
 void rectilinear_auto(const RectilinearContext& ctx, Scratch& s, const Particle& p) {

@@ -62,17 +62,18 @@ void grid_pmm(const Context& ctx, Scratch& s, const Particle& p);
 /// auto's quick case for a sphere on a Cartesian grid, the choice the full model would make
 /// at a fraction of its cost: when counting pmm's sub-elements per octant costs less than
 /// exact on the fewest cells it can take (two), a sphere whose template lies in at most
-/// 2 x 2 x 2 mesh cells goes to pmm_sphere_quick (the fast path or the count). False, with
+/// 2 x 2 x 2 mesh cells goes to PmmQuick (the fast path or the count). False, with
 /// nothing added or counted, otherwise.
 template <class Sink>
-bool auto_sphere_quick(const Context& ctx, Scratch& s, const Particle& p, Sink&& sink) {
+bool auto_sphere_quick(const PmmQuick& quick, Scratch& s, const Particle& p, Sink&& sink) {
+  const Context& ctx = quick.context();
   const GridCosts& m = cartesian_costs();
   Particle q = p;
   q.shape_template = &ctx.template_for(p);  // looked up once
   if (!(m.pmm_particle + m.pmm_counted * double(q.shape_template->size()) < m.exact_particle + 2 * m.exact_cell))
     return false;
   const std::int64_t fast = s.fast_path;
-  if (!pmm_sphere_quick(ctx, s, q, sink)) return false;
+  if (!quick(s, q, sink)) return false;
   // One deposit is the fast path when the ball itself lies in the cell (exact's as well).
   ++(s.fast_path != fast && single_cell(ctx, p.centre, Eigen::Vector3d::Constant(p.radius)) >= 0 ? s.auto_fast
                                                                                                   : s.auto_pmm);

@@ -17,7 +17,11 @@ namespace vfe::kernels {
 
 /// Points within this distance of a split plane (template units: the unit sphere) are
 /// left to double arithmetic. Float's error on R_d . q and on the threshold is below 1e-6.
-inline constexpr double kSplitGuard = 4e-6;
+inline constexpr double kSplitGuard = 0x1p-18;  // 3.8e-6
+
+/// The float points are stored times this (a power of two: exact), so that the rounded
+/// distance to a plane in these units is 0 exactly for a point within the guard band.
+inline constexpr double kSplitScale = 0.5 / kSplitGuard;
 
 /// Most points the counting path takes (64 words of 64); larger templates scatter.
 inline constexpr std::size_t kMaxSplitWords = 64;
@@ -29,6 +33,20 @@ void prepare_octant_split(ParticleTemplate& t);
 /// Which code counts: the fastest the CPU runs (AVX2 + FMA on x86-64 when present), or the
 /// portable one (tests run both).
 enum class SplitPath { fastest, portable };
+
+/// The count for one set of split axes: rows is R as floats row by row, tau[d] the
+/// threshold of split axis d (entries of other axes are not read); the rest as
+/// count_octants. Each set has its own code, so a particle pays no dispatch or set-up.
+using OctantCountFn = bool (*)(const ParticleTemplate& t, const float* rows, const float tau[3],
+                               std::int32_t counts[8]);
+
+/// The counting code per split mask (entry `split`, 1 to 7; entry 0 puts every point in
+/// octant 0) for template t (a template of at most 64 points has code for its size) on a
+/// path; look it up once per template, not per particle.
+struct OctantCounter {
+  OctantCountFn by_split[8];
+};
+const OctantCounter& octant_counter(const ParticleTemplate& t, SplitPath path = SplitPath::fastest);
 
 /// Sub-elements per octant: point q (of t) is above the plane of axis d when
 /// R.row(d) . q >= tau[d], for each axis d with bit d set in `split`; axes not split put

@@ -21,7 +21,8 @@ struct ParticleTemplate {
   int shells = 0, bands = 0, sectors = 0;  ///< spherical family's layout; 0 for others
   int lattice = 0;     ///< voxel family: cubes per diameter; 0 for others
   /// The points as floats for counting sub-elements per octant (octant_split.hpp): x of
-  /// every point, then y, then z, each padded with zeros to split_words x 64 values.
+  /// every point, then y, then z, each padded with NaN to split_words x 64 values, all times
+  /// kSplitScale.
   /// Empty unless prepare_octant_split made them (it needs equal fractions).
   std::vector<float> split_points;
   std::size_t split_words = 0;
@@ -64,6 +65,23 @@ const Eigen::Matrix3d& banked_random_rotation(std::uint64_t index, std::uint64_t
 /// The same matrix of the same bank as floats, row by row (9 values; half the bytes, for
 /// code that compares in float).
 const float* banked_random_rotation_rows(std::uint64_t index, std::uint64_t seed);
+
+/// Rotations in the bank.
+inline constexpr std::size_t kRotationBankSize = 4096;
+
+/// The bank slot of (index, seed): a hash, so neighbouring indices get unrelated rotations.
+inline std::size_t rotation_bank_slot(std::uint64_t index, std::uint64_t seed) {
+  std::uint64_t z = index * 0x9E3779B97F4A7C15ull + seed * 0xD1B54A32D192ED03ull + 0x632BE59BD9B4E019ull;
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+  z ^= z >> 31;
+  return static_cast<std::size_t>(z & (kRotationBankSize - 1));
+}
+
+/// The whole bank as floats, slot after slot, 9 values each (banked_random_rotation_rows
+/// of (index, seed) is this + 9 * rotation_bank_slot(index, seed)): for loops that look up
+/// many particles' rotations without a call each.
+const float* banked_rotation_rows_table();
 
 /// R rounded to floats, row by row: the layout banked_random_rotation_rows gives.
 inline void rotation_rows(const Eigen::Matrix3d& R, float rows[9]) {

@@ -14,6 +14,17 @@ namespace vfe::kernels {
 /// exactly 4 pi / 3.  Closed form (no quadrature); NaN in, NaN out.
 double unit_ball_orthant_volume(double x, double y, double z);
 
+/// The unit ball cut by the planes X = a, Y = b, Z = c into 8 parts: volumes[i + 2j + 4k]
+/// is the part on the upper side of the X plane when i = 1 (lower side when 0), likewise j
+/// for Y and b, k for Z and c.  A plane with |t| >= 1 (infinities allowed: "no plane")
+/// misses the ball and leaves its far side exactly 0; so do parts the ball does not reach
+/// (tangent included).  Exact to round-off (absolute error ~1e-15 of the ball volume), the
+/// parts summing to 4 pi / 3 to round-off; a part cut off by one plane alone is the cap
+/// formula's value.  Costs 3 caps, 3 wedges and one corner in closed form (9 angles, 3 square
+/// roots) when all three planes cut, one wedge for two, a cap for one: the cells of a sphere
+/// spanning at most 2 cells per axis, in one call.
+void unit_ball_octants(double a, double b, double c, double volumes[8]);
+
 /// Volume of the ball |p - centre| <= radius intersected with the box [lo, hi].
 /// Exact to round-off (absolute error ~1e-15 of the ball volume); exactly 0 when the
 /// box does not reach into the ball (tangent included), exactly the box volume when the
