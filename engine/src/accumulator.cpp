@@ -45,13 +45,14 @@ void Accumulator::clear_solid() {
   touched_valid_ = false;
 }
 
-void Accumulator::merge_private(tbb::task_arena& arena, bool onto_solid) {
-  if (!onto_solid) {
-    clear_solid();
-    dropped_ = 0;
-  }
+bool Accumulator::merge_private(tbb::task_arena& arena, bool onto_solid, CellPass* pass) {
   double dropped = 0;
+  bool passed = false;
   if (plan_.touched_only) {  // only the cells the threads touched
+    if (!onto_solid) {
+      clear_solid();
+      dropped_ = 0;
+    }
     for (PrivateField& pf : private_) {
       for (const std::int64_t c : pf.touched) {
         double& x = pf.field[static_cast<std::size_t>(c)];
@@ -68,17 +69,35 @@ void Accumulator::merge_private(tbb::task_arena& arena, bool onto_solid) {
     }
     touched_valid_ = !onto_solid;
   } else {
+    if (!onto_solid) {  // every cell is written below: nothing to clear
+      touched_.clear();
+      touched_valid_ = false;
+      dropped_ = 0;
+    }
+    // One pass per block: the sum of the private fields written (or added) to solid_, the
+    // private fields zeroed, then the caller's pass over the block.
+    const std::int64_t nblocks = (cells_ + kCellBlock - 1) / kCellBlock;
     arena.execute([&] {
-      tbb::parallel_for(tbb::blocked_range<std::int64_t>(0, cells_, 4096), [&](const tbb::blocked_range<std::int64_t>& r) {
-        for (PrivateField& pf : private_) {
-          if (pf.field.size() != static_cast<std::size_t>(cells_ + 1)) continue;
-          for (std::int64_t c = r.begin(); c < r.end(); ++c) {
-            solid_[static_cast<std::size_t>(c)] += pf.field[static_cast<std::size_t>(c)];
-            pf.field[static_cast<std::size_t>(c)] = 0.0;
+      tbb::parallel_for(tbb::blocked_range<std::int64_t>(0, nblocks), [&](const tbb::blocked_range<std::int64_t>& r) {
+        double* const solid = solid_.data();
+        for (std::int64_t b = r.begin(); b < r.end(); ++b) {
+          const std::int64_t begin = b * kCellBlock, end = std::min(cells_, begin + kCellBlock);
+          bool assign = !onto_solid;
+          for (PrivateField& pf : private_) {
+            if (pf.field.size() != static_cast<std::size_t>(cells_ + 1)) continue;
+            double* const f = pf.field.data();
+            if (assign)
+              for (std::int64_t c = begin; c < end; ++c) solid[c] = f[c], f[c] = 0.0;
+            else
+              for (std::int64_t c = begin; c < end; ++c) solid[c] += f[c], f[c] = 0.0;
+            assign = false;
           }
+          if (assign) std::fill(solid + begin, solid + end, 0.0);  // no thread took part
+          if (pass) pass->cells(b, begin, end, solid);
         }
       });
     });
+    passed = pass != nullptr;
     for (PrivateField& pf : private_) {
       if (pf.field.size() != static_cast<std::size_t>(cells_ + 1)) continue;
       dropped += pf.field.back();
@@ -87,6 +106,7 @@ void Accumulator::merge_private(tbb::task_arena& arena, bool onto_solid) {
   }
   dropped_ += dropped;
   private_dirty_ = false;
+  return passed;
 }
 
 void Accumulator::sorted_sum(tbb::task_arena& arena) {
@@ -302,7 +322,8 @@ void Accumulator::apply_incremental(tbb::task_arena& arena) {
   dropped_ += dropped;
 }
 
-void Accumulator::commit(tbb::task_arena& arena) {
+bool Accumulator::commit(tbb::task_arena& arena, CellPass* pass) {
+  bool passed = false;
   const std::int64_t nblocks = static_cast<std::int64_t>(next_.size());
   moved_list_.clear();
   if (!plan_.fixed_point) fixed_valid_ = false;
@@ -339,11 +360,12 @@ void Accumulator::commit(tbb::task_arena& arena) {
     moved_ = n_;
     kept_ = false;
   } else {
-    merge_private(arena, false);
+    passed = merge_private(arena, false, pass);
     moved_ = n_;
     kept_ = false;
   }
   pending_ = false;
+  return passed;
 }
 
 }  // namespace vfe::detail

@@ -41,6 +41,22 @@ inline FixedSum to_fixed(double value, int exponent) {
   return static_cast<FixedSum>(std::nearbyint(std::ldexp(value, -exponent)));
 }
 
+/// Cells per block of the passes over the field: fixed, so sums over blocks in order do
+/// not depend on the thread count.
+inline constexpr std::int64_t kCellBlock = 4096;
+
+/// A pass over the committed field that commit runs where it writes every cell (private
+/// fields merged, no touched_only): cells(block, begin, end, solid) for each block of
+/// kCellBlock cells right after the merge wrote it, while it is in the cache; blocks run
+/// on several threads at once.
+class CellPass {
+ public:
+  virtual void cells(std::int64_t block, std::int64_t begin, std::int64_t end, const double* solid) = 0;
+
+ protected:
+  ~CellPass() = default;
+};
+
 /// How one compute accumulates: the resolved strategy and the skips that combine with it.
 struct AccumulationPlan {
   Accumulation strategy = Accumulation::privatised;  ///< privatised, atomic or sorted (never automatic)
@@ -123,8 +139,9 @@ class Accumulator {
   }
   /// Drops phase 1's results (a check after phase 1 failed).
   void abandon();
-  /// Phase 2: makes phase 1's deposits the committed field.
-  void commit(tbb::task_arena& arena);
+  /// Phase 2: makes phase 1's deposits the committed field. Returns whether it ran pass
+  /// (when given) over every block of cells.
+  bool commit(tbb::task_arena& arena, CellPass* pass = nullptr);
 
  private:
   struct PrivateField {
@@ -137,8 +154,9 @@ class Accumulator {
     if (plan_.touched_only && x == 0.0) f.touched.push_back(d.cell);
     x += d.volume;
   }
-  /// Adds the private fields into solid_ (cleared first unless onto_solid) and zeroes them.
-  void merge_private(tbb::task_arena& arena, bool onto_solid);
+  /// Adds the private fields into solid_ (cleared first unless onto_solid) and zeroes them;
+  /// runs pass over the blocks of cells unless touched_only (returns whether it did).
+  bool merge_private(tbb::task_arena& arena, bool onto_solid, CellPass* pass = nullptr);
   void reduce_blocks(tbb::task_arena& arena);
   void sorted_sum(tbb::task_arena& arena);
   /// Makes solid_ (and dropped_) the doubles of fixed_ at the cells listed, or every cell.

@@ -15,6 +15,7 @@
 #include "particle_grid.hpp"
 #include "particle_arrays.hpp"
 #include "particle_order.hpp"
+#include "sphere_pass.hpp"
 #include "shape_spec.hpp"
 #include "smoothing.hpp"
 
@@ -312,7 +313,7 @@ struct Engine::Impl {
     return b;
   }
 
-  static constexpr std::int64_t kChunk = 256;  ///< particles checked, then deposited, at a time
+  static constexpr std::int64_t kChunk = detail::kSphereChunk;  ///< spheres checked (and deposited) at a time
 
   /// The particles' validation: body(range, acc) checks a range of particles into acc. The
   /// reduction tree is fixed (blocks of 4096, halved), so the sums are the same for any
@@ -354,9 +355,8 @@ struct Engine::Impl {
     const bool given = opts.orientation == Orientation::given;
     if (!pa.shape_ids && !given) {  // spheres only: the tight loop of the fused passes
       const Validation v = reduce_particles(pa.n, [&](const tbb::blocked_range<std::int64_t>& r, Validation& acc) {
-        double volumes[kChunk];
         for (std::int64_t first = r.begin(); first < r.end(); first += kChunk)
-          detail::check_spheres(pa, first, std::min(kChunk, r.end() - first), bounds, acc, volumes);
+          detail::check_sphere_chunk(pa, first, std::min(kChunk, r.end() - first), bounds, acc);
       });
       check_validation(pa, v);
       return v;
@@ -409,60 +409,54 @@ struct Engine::Impl {
     return opts.method == Method::direct && mesh.kind() == MeshKind::cartesian && !mesh.cartesian()->is_block() &&
            !pa.shape_ids &&
            opts.orientation != Orientation::given && pl.strategy == Accumulation::privatised && !pl.uses_blocks() &&
-           !pl.touched_only;
+           !pl.touched_only && mesh.cell_count() < detail::kCentreGridCells;
   }
 
   /// The fused pass: the same Validation as validate() (the same tree, the same particles in
-  /// order) and the same cells as direct_particle; a particle whose centre lies outside the
-  /// grid goes through the driver (the outside policy). Throws validate()'s errors, and the
-  /// accumulator drops what the pass deposited.
-  Validation fused_direct(const ParticleArrays& pa, const detail::AccumulationPlan& pl) {
-    return mesh.periodic() ? fused_direct<true>(pa, pl) : fused_direct<false>(pa, pl);
-  }
-  template <bool kPeriodic>
+  /// order) and the same cells as direct_particle. A sphere whose centre lies outside the
+  /// grid goes through the driver (the outside policy); on a periodic grid every sphere is
+  /// wrapped first, as the driver does. Throws validate()'s errors, and the accumulator
+  /// drops what the pass deposited.
   Validation fused_direct(const ParticleArrays& pa, const detail::AccumulationPlan& pl) {
     const CartesianGrid& grid = *mesh.cartesian();
     const detail::Context ctx{detail::MethodContext{opts, detail::TemplateBank{}, divided}, grid};
     const detail::SphereBounds bounds = sphere_bounds();
+    const bool periodic = mesh.periodic() != 0;
     return acc.deposit_private(pl, pa.n, [&](auto&& thread_field) {
       const Validation v = reduce_particles(pa.n, [&](const tbb::blocked_range<std::int64_t>& r, Validation& a) {
         Scratch& s = scratch.local();
         double* const field = thread_field();
-        // Everything the deposit loop reads, in locals: the stores into field could alias
-        // any double behind a reference, which would make the compiler reload it each time.
-        const char* const centres = pa.centres;
-        const std::int64_t cs = pa.centres_stride;
-        const double o0 = grid.origin()[0], o1 = grid.origin()[1], o2 = grid.origin()[2];
-        const double i0 = 1.0 / grid.spacing()[0], i1 = 1.0 / grid.spacing()[1], i2 = 1.0 / grid.spacing()[2];
-        const double n0 = double(grid.cells()[0]), n1 = double(grid.cells()[1]), n2 = double(grid.cells()[2]);
-        const std::int64_t nx = grid.cells()[0], nxy = nx * grid.cells()[1];
-        // Chunks, two loops each: the checks, then the deposits, which read the chunk again
-        // from L1. One loop doing both holds more values than x86-64 has registers.
-        double volumes[kChunk];
+        detail::CentreGrid g{};
+        for (int d = 0; d < 3; ++d) {
+          g.origin[d] = grid.origin()[d];
+          g.inv_spacing[d] = 1.0 / grid.spacing()[d];
+          g.cells[d] = double(grid.cells()[d]);
+        }
+        g.strides[0] = static_cast<std::int32_t>(grid.cells()[0]);
+        g.strides[1] = static_cast<std::int32_t>(grid.cells()[0] * grid.cells()[1]);
+        g.field = field;
+        auto by_driver = [&](std::int64_t p) {
+          s.deposits.clear();
+          detail::direct_particle(ctx, s, particle(pa, p));
+          for (const Deposit& d : s.deposits) field[d.cell] += d.volume;
+        };
+        std::int64_t left[kChunk];
         for (std::int64_t first = r.begin(); first < r.end(); first += kChunk) {
           const std::int64_t count = std::min(kChunk, r.end() - first);
-          detail::check_spheres(pa, first, count, bounds, a, volumes);
-          for (std::int64_t k = 0; k < count; ++k) {
-            const double* c = reinterpret_cast<const double*>(centres + (first + k) * cs);
-            const double vol = volumes[k];
-            if (vol == 0) continue;  // a bad particle: the compute fails
-            ++s.sub_elements;
-            double x0 = c[0], x1 = c[1], x2 = c[2];
-            if constexpr (kPeriodic) {
-              const Eigen::Vector3d w = mesh.wrap(Eigen::Vector3d(x0, x1, x2));
-              x0 = w[0], x1 = w[1], x2 = w[2];
+          if (!periodic) {
+            const std::int64_t nleft = detail::deposit_sphere_chunk(pa, first, count, bounds, g, a, left);
+            s.sub_elements += count - nleft;  // the driver counts the others
+            for (std::int64_t i = 0; i < nleft; ++i) by_driver(left[i]);
+            continue;
+          }
+          if (!detail::check_sphere_chunk(pa, first, count, bounds, a)) continue;  // the compute fails
+          for (std::int64_t p = first; p < first + count; ++p) {
+            if (const std::int64_t cell = grid.locate(mesh.wrap(pa.centre(p))); cell >= 0) {
+              field[cell] += sphere_volume(pa.radius(p));
+              ++s.sub_elements;
+            } else {
+              by_driver(p);
             }
-            // grid.locate: floor((x - o) / h) in [0, n) per axis; on [0, n) floor is truncation.
-            const double t0 = (x0 - o0) * i0, t1 = (x1 - o1) * i1, t2 = (x2 - o2) * i2;
-            if ((t0 >= 0) & (t0 < n0) & (t1 >= 0) & (t1 < n1) & (t2 >= 0) & (t2 < n2)) [[likely]] {
-              field[static_cast<std::int64_t>(t0) + nx * static_cast<std::int64_t>(t1) +
-                    nxy * static_cast<std::int64_t>(t2)] += vol;
-              continue;
-            }
-            s.deposits.clear();
-            --s.sub_elements;  // the driver counts the particle again
-            detail::direct_particle(ctx, s, particle(pa, first + k));
-            for (const Deposit& d : s.deposits) field[d.cell] += d.volume;
           }
         }
       });
@@ -659,8 +653,15 @@ struct Engine::Impl {
       acc.abandon();
       throw;
     }
+    // When nothing after the commit can fail (no snapshot or weights to record, no
+    // smoothing), the merge's pass over the cells also gathers the field's facts and writes
+    // out, block by block while each is in the cache.
+    const bool facts_in_merge = !opts.incremental && !opts.weights && opts.smoothing_length <= 0;
+    block_facts.resize(static_cast<std::size_t>((ncell + detail::kCellBlock - 1) / detail::kCellBlock));
+    FieldPass pass(*this, out.data());
+    bool out_written = false;
     try {
-      acc.commit(*arena);
+      out_written = acc.commit(*arena, facts_in_merge ? &pass : nullptr);
     } catch (...) {  // the field may be half written: the next compute starts afresh
       acc.invalidate_kept();
       have_field = weights_kept = false;
@@ -678,9 +679,11 @@ struct Engine::Impl {
     } else {
       smoothed.clear();
     }
-    rep.deposited_volume = sum_cells(field(), touched());
-    rep.clipped_volume = clipped_volume(field(), touched());
-    count_overfull();
+    const FieldFacts facts = out_written ? pass.total() : field_facts(out.data());
+    rep.deposited_volume = facts.sum;
+    rep.clipped_volume = facts.clipped;
+    overfull_cells = facts.overfull_cells;
+    overfull_volume = facts.overfull_volume;
     if (mesh.kind() != MeshKind::polyhedral && !pa.shape_ids)
       rep.outside_particles = v.beyond;  // geometric on grids: the same count for every method
     else if (opts.incremental)
@@ -691,7 +694,6 @@ struct Engine::Impl {
     for (const Scratch& sc : scratch) counted_particles += sc.counted;
     fused_pass = fused;  // validation and deposits in one pass
     ordered_blocks = arranged_blocks;
-    std::copy(field().begin(), field().end(), out.begin());
     if (log->should_log(spdlog::level::info))  // the note allocates: steady-state computes must not
       log->info("computed {} particles with {} on a {}{}: {} moved, {} sub-elements, {} on the fast path, {} outside",
                 pa.n, to_string(opts.method), mesh.kind_name(), lattice_note(), acc.moved(), rep.sub_elements,
@@ -966,46 +968,85 @@ struct Engine::Impl {
   std::int64_t lattice_particles = 0;
   /// method=auto: particles of the last compute on the fast path, pmm and exact.
   std::int64_t auto_paths[3] = {0, 0, 0};
-  void count_overfull() {
-    overfull_cells = 0;
-    overfull_volume = 0;
-    const std::vector<double>& f = field();
-    auto check = [&](std::int64_t c) {
-      const double excess = f[static_cast<std::size_t>(c)] - mesh.cell_volume(c);
-      if (excess > 1e-12 * mesh.cell_volume(c)) {
-        ++overfull_cells;
-        overfull_volume += excess;
+  /// What the report says of the field: its sum, the solid volume that clipping eps at
+  /// alpha_min removes (0 when alpha_min is 0: no clip), and the overfull cells.
+  struct FieldFacts {
+    double sum = 0, clipped = 0, overfull_volume = 0;
+    std::int64_t overfull_cells = 0;
+    void add(const FieldFacts& o) {
+      sum += o.sum, clipped += o.clipped, overfull_volume += o.overfull_volume, overfull_cells += o.overfull_cells;
+    }
+  };
+  /// Adds cells [begin, end) of f to facts, cell by cell in order; cell_volume(c) gives V_c.
+  template <class CellVolume>
+  void add_facts(const double* f, std::int64_t begin, std::int64_t end, CellVolume&& cell_volume,
+                 FieldFacts& facts) const {
+    const double keep = 1.0 - opts.alpha_min;  // of a cell's volume, what clipping leaves solid
+    const bool clip = opts.alpha_min > 0;
+    for (std::int64_t c = begin; c < end; ++c) {
+      const double x = f[c], v = cell_volume(c);
+      facts.sum += x;
+      if (clip) facts.clipped += std::max(0.0, x - keep * v);
+      if (const double excess = x - v; excess > 1e-12 * v) [[unlikely]] {
+        ++facts.overfull_cells;
+        facts.overfull_volume += excess;
       }
-    };
-    if (const auto* cells = touched())
-      for (const std::int64_t c : *cells) check(c);
-    else
-      for (std::int64_t c = 0; c < mesh.cell_count(); ++c) check(c);
+    }
+  }
+  /// add_facts over cells [begin, end) of f, with a Cartesian grid's one cell volume.
+  void add_block_facts(const double* f, std::int64_t begin, std::int64_t end, FieldFacts& facts) const {
+    if (const CartesianGrid* g = mesh.cartesian()) {
+      const double v = g->cell_volume();
+      add_facts(f, begin, end, [v](std::int64_t) { return v; }, facts);
+    } else {
+      add_facts(f, begin, end, [this](std::int64_t c) { return mesh.cell_volume(c); }, facts);
+    }
   }
 
-  /// Sum of the field over the given cells (all cells when null).
-  static double sum_cells(const std::vector<double>& field, const std::vector<std::int64_t>* cells) {
-    double sum = 0;
-    if (cells)
-      for (const std::int64_t c : *cells) sum += field[static_cast<std::size_t>(c)];
-    else
-      for (const double x : field) sum += x;
-    return sum;
-  }
+  /// The facts of each block of the field (detail::kCellBlock cells), summed in block order
+  /// afterwards: the same sums for any thread count.
+  std::vector<FieldFacts> block_facts;
+  /// The field's facts block by block, each block copied to out (when given) once added.
+  class FieldPass final : public detail::CellPass {
+   public:
+    FieldPass(Impl& engine, double* out) : e_(engine), out_(out) {}
+    void cells(std::int64_t block, std::int64_t begin, std::int64_t end, const double* field) override {
+      FieldFacts& f = e_.block_facts[static_cast<std::size_t>(block)];
+      f = FieldFacts{};
+      e_.add_block_facts(field, begin, end, f);
+      if (out_) std::copy(field + begin, field + end, out_ + begin);
+    }
+    FieldFacts total() const {
+      FieldFacts t;
+      for (const FieldFacts& f : e_.block_facts) t.add(f);
+      return t;
+    }
 
-  /// Solid volume that clipping eps at alpha_min removes (0 when alpha_min is 0: no clip).
-  /// Over the given cells (all cells when null; others hold no solid).
-  double clipped_volume(const std::vector<double>& field, const std::vector<std::int64_t>* cells) const {
-    if (opts.alpha_min <= 0) return 0.0;
-    auto clip = [&](std::int64_t c) {
-      return std::max(0.0, field[static_cast<std::size_t>(c)] - (1.0 - opts.alpha_min) * mesh.cell_volume(c));
-    };
-    double clipped = 0;
-    if (cells)
-      for (const std::int64_t c : *cells) clipped += clip(c);
-    else
-      for (std::int64_t c = 0; c < static_cast<std::int64_t>(field.size()); ++c) clipped += clip(c);
-    return clipped;
+   private:
+    Impl& e_;
+    double* out_;
+  };
+
+  /// The facts of field() (over the touched cells when it lists them: the others hold no
+  /// solid), and field() copied to out when given.
+  FieldFacts field_facts(double* out) {
+    const std::vector<double>& f = field();
+    if (const auto* cells = touched()) {
+      FieldFacts facts;
+      for (const std::int64_t c : *cells) add_block_facts(f.data(), c, c + 1, facts);
+      if (out) std::copy(f.begin(), f.end(), out);
+      return facts;
+    }
+    const std::int64_t ncell = static_cast<std::int64_t>(f.size());
+    block_facts.resize(static_cast<std::size_t>((ncell + detail::kCellBlock - 1) / detail::kCellBlock));
+    FieldPass pass(*this, out);
+    arena->execute([&] {
+      tbb::parallel_for(std::size_t(0), block_facts.size(), [&](std::size_t b) {
+        const std::int64_t begin = std::int64_t(b) * detail::kCellBlock;
+        pass.cells(std::int64_t(b), begin, std::min(ncell, begin + detail::kCellBlock), f.data());
+      });
+    });
+    return pass.total();
   }
 };
 
@@ -1099,8 +1140,7 @@ void Engine::configure(std::string_view options) {
   if (new_arena) impl_->make_arena();
   impl_->log->set_level(spdlog::level::from_str(next.log_level));
   // The report's clipped volume follows alpha_min, as vfe_void_fraction does.
-  if (impl_->have_field)
-    impl_->report.clipped_volume = impl_->clipped_volume(impl_->field(), impl_->touched());
+  if (impl_->have_field) impl_->report.clipped_volume = impl_->field_facts(nullptr).clipped;
 }
 
 std::string Engine::option(std::string_view key) const { return option_value(impl_->opts, key); }

@@ -7,9 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <cstring>
 #include <limits>
-#include <numbers>
 
 namespace vfe::detail {
 
@@ -78,52 +76,5 @@ struct SphereBounds {
            (c[2] + r > hi[2]);
   }
 };
-
-/// Validation of the spheres [first, first + count) into a, in order (so sums do not depend
-/// on how a caller cuts its range into chunks); volumes[k] receives each sphere's volume, 0
-/// for a bad one. A tight loop with nothing but the checks; a chunk holding a bad particle
-/// is checked again one by one.
-inline void check_spheres(const ParticleArrays& pa, std::int64_t first, std::int64_t count, const SphereBounds& b,
-                          Validation& a, double* volumes) {
-  constexpr double k4pi3 = 4.0 / 3.0 * std::numbers::pi;  // sphere_volume's factor, the same rounding
-  const char* const cc = pa.centres + first * pa.centres_stride;
-  const char* const rr = pa.radii + first * pa.radii_stride;
-  const std::int64_t cs = pa.centres_stride, rs = pa.radii_stride;
-  bool all_ok = true;
-  double volume = a.volume, d_min = a.d_min, d_max = a.d_max;
-  std::int64_t beyond = a.beyond;
-  for (std::int64_t k = 0; k < count; ++k) {
-    // This machine's hardware prefetcher does not follow the particle stream: ask for the
-    // particle 16 ahead (past the end is harmless).
-    __builtin_prefetch(cc + (k + 16) * cs);
-    __builtin_prefetch(rr + (k + 16) * rs);
-    const double* c = reinterpret_cast<const double*>(cc + k * cs);
-    const double r = *reinterpret_cast<const double*>(rr + k * rs);
-    const double v = k4pi3 * r * r * r;
-    volumes[k] = v;
-    all_ok &= particle_values_ok(c, r, v);
-    volume += v;
-    d_min = std::min(d_min, 2 * r);
-    d_max = std::max(d_max, 2 * r);
-    beyond += b.beyond(c, r);
-  }
-  if (all_ok) [[likely]] {
-    a.volume = volume, a.d_min = d_min, a.d_max = d_max, a.beyond = beyond;
-    return;
-  }
-  for (std::int64_t k = 0; k < count; ++k) {
-    const double* c = reinterpret_cast<const double*>(cc + k * cs);
-    const double r = *reinterpret_cast<const double*>(rr + k * rs);
-    if (!particle_values_ok(c, r, volumes[k])) {
-      a.first_bad = std::min(a.first_bad, first + k);
-      volumes[k] = 0;
-      continue;
-    }
-    a.volume += volumes[k];
-    a.d_min = std::min(a.d_min, 2 * r);
-    a.d_max = std::max(a.d_max, 2 * r);
-    a.beyond += b.beyond(c, r);
-  }
-}
 
 }  // namespace vfe::detail

@@ -1,5 +1,7 @@
 #include "particle_order.hpp"
 
+#include "sphere_pass.hpp"
+
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -60,15 +62,14 @@ ParticleArrays BlockedOrder::arrange(tbb::task_arena& arena, const ParticleArray
       const std::int64_t end = std::min(n, (r + 1) * kRange);
       constexpr double inf = std::numeric_limits<double>::infinity();
       const SphereBounds open{{-inf, -inf, -inf}, {inf, inf, inf}};
-      constexpr std::int64_t kChunk = 256;
-      double volumes[kChunk];
       Validation v;
-      for (std::int64_t first = r * kRange; first < end; first += kChunk) {
-        const std::int64_t k_end = std::min(kChunk, end - first);
-        check_spheres(pa, first, k_end, open, v, volumes);
+      bool good = true;
+      for (std::int64_t first = r * kRange; first < end; first += kSphereChunk) {
+        const std::int64_t k_end = std::min(kSphereChunk, end - first);
+        good &= check_sphere_chunk(pa, first, k_end, open, v);
         for (std::int64_t k = 0; k < k_end; ++k) ++count[slabs.of(z_of(first + k))];
       }
-      bad_[static_cast<std::size_t>(r)] = v.first_bad != std::numeric_limits<std::int64_t>::max();
+      bad_[static_cast<std::size_t>(r)] = !good;
     });
   });
   if (std::find(bad_.begin(), bad_.end(), 1) != bad_.end()) return pa;

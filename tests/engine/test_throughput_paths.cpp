@@ -132,5 +132,93 @@ TEST(FusedDirect, BadParticlesAndOutsideErrorsLeaveTheFieldAndTheNextComputeInta
   EXPECT_EQ(out, good);  // nothing of the failed computes remains
 }
 
+/// The same spheres as records of x, y, z, r, id (strides of 5 doubles, not packed).
+struct Records {
+  std::vector<double> values;
+  explicit Records(const Particles& p) {
+    for (std::size_t i = 0; i < p.radii.size(); ++i)
+      values.insert(values.end(), {p.centres[3 * i], p.centres[3 * i + 1], p.centres[3 * i + 2], p.radii[i], double(i)});
+  }
+  ParticleView view() const {
+    ParticleView v;
+    v.n = static_cast<std::int64_t>(values.size() / 5);
+    v.centres = values.data();
+    v.radii = values.data() + 3;
+    v.centre_stride = v.radius_stride = 5;
+    return v;
+  }
+};
+
+TEST(FusedDirect, EqualsTheGeneralLoopForAnyCountStrideAndThreadCount) {
+  // Counts that end in every tail of the four-lane steps and in partial chunks of 256.
+  for (const int n : {1, 3, 6, 257, 4099})
+    for (const int threads : {1, 2})
+      for (const bool strided : {false, true})
+        for (const char* periodic : {"none", "y"}) {
+          const Particles p = random_spheres(40 + n, n, -0.6, 10.6, 0.05, 0.6);
+          const Records records(p);
+          const std::string o = "method=direct outside=nearest alpha_min=0.3 threads=" + std::to_string(threads) +
+                                " periodic=" + periodic;
+          SCOPED_TRACE(o + " n=" + std::to_string(n) + (strided ? " strided" : ""));
+          Engine fused(grid(0.5, 20, 20, 20)), general(grid(0.5, 20, 20, 20));
+          fused.configure(o + " accumulation=private");  // auto takes atomics for few particles
+          general.configure(o + " accumulation=atomic");
+          std::vector<double> a(fused.cell_count(), -1.0), b(general.cell_count(), -1.0);
+          fused.compute(strided ? records.view() : p.view(), a);
+          general.compute(p.view(), b);
+          expect_same_field(a, b, 1e-15 * p.volume(), o);
+          EXPECT_EQ(fused.last_report_value("fused_pass"), 1.0);
+          const Report& ra = fused.last_report();
+          const Report& rb = general.last_report();
+          EXPECT_EQ(ra.particle_volume, rb.particle_volume);
+          EXPECT_EQ(ra.outside_particles, rb.outside_particles);
+          EXPECT_EQ(ra.sub_elements, rb.sub_elements);
+          // The field's facts from the merge's pass against the general loop's separate one.
+          const double bound = double(fused.cell_count()) * std::numeric_limits<double>::epsilon() * p.volume();
+          EXPECT_NEAR(ra.deposited_volume, rb.deposited_volume, bound);
+          EXPECT_NEAR(ra.deposited_volume, total(a), bound);
+          EXPECT_NEAR(ra.clipped_volume, rb.clipped_volume, bound);
+          EXPECT_EQ(fused.last_report_value("overfull_cells"), general.last_report_value("overfull_cells"));
+          EXPECT_NEAR(fused.last_report_value("overfull_volume"), general.last_report_value("overfull_volume"), bound);
+          if (n > 1000) {  // the scene is dense enough to test the facts
+            EXPECT_GT(fused.last_report_value("overfull_cells"), 0.0);
+            EXPECT_GT(ra.clipped_volume, 0.0);
+          }
+        }
+}
+
+TEST(FusedDirect, ABadParticleAnywhereFailsTheComputeAndLeavesTheOutputAlone) {
+  const Particles p = random_spheres(24, 3001, 0.5, 9.5, 0.1, 0.3);
+  // The first of a range, the middle of a chunk, a four-lane step's tail in the last
+  // partial chunk, the last particle.
+  for (const int at : {0, 1234, 2998, 3000})
+    for (const char* options : {"method=direct threads=1", "method=direct threads=2",
+                                "method=direct threads=2 periodic=xyz", "method=pmm threads=2"}) {
+      SCOPED_TRACE(std::string(options) + " at " + std::to_string(at));
+      Engine e(grid(1.0, 10, 10, 10));
+      const std::vector<double> good = run(e, p, options);
+      for (const int coordinate : {1, 3}) {  // a NaN centre's y, a NaN radius
+        Particles bad = p;
+        (coordinate == 3 ? bad.radii[at] : bad.centres[3 * at + coordinate]) = std::numeric_limits<double>::quiet_NaN();
+        if (at + 2 < 3001) bad.radii[at + 2] = -1.0;  // a later bad particle is not the one named
+        std::vector<double> out(e.cell_count(), 7.0);
+        try {
+          e.compute(bad.view(), out);
+          ADD_FAILURE() << "a NaN was accepted";
+        } catch (const Error& err) {
+          EXPECT_EQ(err.status(), VFE_ERROR_INVALID_ARGUMENT);
+          EXPECT_NE(std::string(err.what()).find("particle " + std::to_string(at) + ":"), std::string::npos)
+              << err.what();
+        }
+        for (const double x : out) ASSERT_EQ(x, 7.0);
+      }
+      std::vector<double> again(e.cell_count(), -1.0);
+      e.compute(p.view(), again);
+      // Two threads may split the particles differently between computes: the same cells,
+      // added in another order.
+      expect_same_field(again, good, 1e-15 * p.volume(), "after the failed computes");
+    }
+}
+
 }  // namespace
 }  // namespace vfe::test
