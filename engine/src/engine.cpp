@@ -500,7 +500,7 @@ struct Engine::Impl {
             part.volume = sphere_volume(radius);
             part.rotation_key = pa.rotation_key(p);
             // An octant without sub-elements may add 0.0: a cell of the private field stays as it is.
-            if (hybrid ? detail::auto_sphere_quick(quick, s, part, add)
+            if (hybrid ? detail::auto_sphere_quick(quick, s, part, add, detail::PmmQuick::EmptyOctants::add_zero)
                        : quick(s, part, add, detail::PmmQuick::EmptyOctants::add_zero))
               continue;
             s.deposits.clear();

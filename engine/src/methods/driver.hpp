@@ -325,6 +325,10 @@ class PmmQuick {
   }
 
   const Context& context() const { return ctx_; }
+  /// The template operator() takes for p.
+  const kernels::ParticleTemplate& template_of(const Particle& p) const {
+    return single_ && !p.shape_template ? *single_ : ctx_.template_for(p);
+  }
 
   /// What a counted particle gives the sink for an octant it reaches without a sub-element:
   /// nothing, or a zero volume (for a sink adding into a field, where it changes nothing and
@@ -338,7 +342,7 @@ class PmmQuick {
   [[gnu::always_inline]] bool operator()(Scratch& s, const Particle& p, Sink&& sink,
                                          EmptyOctants empty = EmptyOctants::skip) const {
     if (!usable_) return false;
-    const kernels::ParticleTemplate& t = single_ && !p.shape_template ? *single_ : ctx_.template_for(p);
+    const kernels::ParticleTemplate& t = template_of(p);
     // make_window's cells, for a window inside the grid: there no clamp acts, and on a grid
     // from the origin (not a block) the floor of each bound's coordinate (axis_index's) is
     // its truncation.

@@ -26,17 +26,10 @@ inline void exact_window_parts(const CartesianGrid& grid, const Particle& p, con
   for (int m = 0; m < 8; ++m) parts[m] *= r3;
 }
 
-/// exact's quick case, on a grid without periodic axes: a sphere whose cells all lie in the
-/// grid, at most two per axis, goes to sink(cell, volume): the fast path's one deposit when
-/// it lies in one cell, else all 8 parts, zeros included (a part not in the window is 0 and
-/// names a window cell), so that a sink adding into a field needs no branch the processor
-/// would mispredict. Counts as exact_particle does. False, with nothing added or counted,
-/// for any other sphere.
-template <class Sink>
-bool exact_sphere_quick(const Context& ctx, Scratch& s, const Particle& p, Sink&& sink) {
-  const CartesianGrid& grid = ctx.grid;
+/// The cells lo..hi (per axis) of sphere p's box when they all lie in a grid without
+/// periodic axes, at most two per axis; false otherwise (or for NaN).
+[[gnu::always_inline]] inline bool exact_quick_window(const CartesianGrid& grid, const Particle& p, std::int64_t lo[3], std::int64_t hi[3]) {
   if (grid.periodic_mask()) return false;
-  std::int64_t lo[3], hi[3];
   for (int d = 0; d < 3; ++d) {
     // axis_index's cells, tested in cell units first: inside the grid, floor is a
     // truncation on a grid from the origin (not a block).
@@ -48,19 +41,40 @@ bool exact_sphere_quick(const Context& ctx, Scratch& s, const Particle& p, Sink&
     hi[d] = (first == 0 ? static_cast<std::int64_t>(to) : CartesianGrid::fast_floor(to)) - first;
     if (hi[d] - lo[d] > 1) return false;
   }
+  return true;
+}
+
+/// The parts of sphere p over a window lo..hi of exact_quick_window to sink(cell, volume),
+/// all 8, zeros included (a part not in the window is 0 and names a window cell), so that a
+/// sink adding into a field needs no branch the processor would mispredict. Counts the
+/// window's cells as sub-elements, as exact_particle does.
+template <class Sink>
+void exact_window_deposit(const CartesianGrid& grid, Scratch& s, const Particle& p, const std::int64_t lo[3],
+                          const std::int64_t hi[3], Sink&& sink) {
   const std::int64_t base = grid.index(lo[0], lo[1], lo[2]);
   const std::int64_t step[3] = {hi[0] - lo[0], (hi[1] - lo[1]) * grid.cells()[0],
                                 (hi[2] - lo[2]) * grid.cells()[0] * grid.cells()[1]};
-  if (step[0] == 0 && step[1] == 0 && step[2] == 0 && ctx.opts.fast_path) {
-    ++s.fast_path;
-    sink(base, p.volume);
-    return true;
-  }
   s.sub_elements += (hi[0] - lo[0] + 1) * (hi[1] - lo[1] + 1) * (hi[2] - lo[2] + 1);
   double parts[8];
   exact_window_parts(grid, p, lo, hi, parts);
   for (int m = 0; m < 8; ++m)
     sink(base + (m & 1 ? step[0] : 0) + (m & 2 ? step[1] : 0) + (m & 4 ? step[2] : 0), parts[m]);
+}
+
+/// exact's quick case, on a grid without periodic axes: a sphere whose cells all lie in the
+/// grid, at most two per axis, goes to sink(cell, volume): the fast path's one deposit when
+/// it lies in one cell, else exact_window_deposit's 8 parts. Counts as exact_particle does.
+/// False, with nothing added or counted, for any other sphere.
+template <class Sink>
+bool exact_sphere_quick(const Context& ctx, Scratch& s, const Particle& p, Sink&& sink) {
+  std::int64_t lo[3], hi[3];
+  if (!exact_quick_window(ctx.grid, p, lo, hi)) return false;
+  if (lo[0] == hi[0] && lo[1] == hi[1] && lo[2] == hi[2] && ctx.opts.fast_path) {
+    ++s.fast_path;
+    sink(ctx.grid.index(lo[0], lo[1], lo[2]), p.volume);
+    return true;
+  }
+  exact_window_deposit(ctx.grid, s, p, lo, hi, sink);
   return true;
 }
 

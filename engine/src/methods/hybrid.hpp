@@ -4,6 +4,7 @@
 // auto's accuracy; each particle's deposits are those of the path it takes.
 #pragma once
 
+#include "methods/exact.hpp"
 #include "methods/polymesh.hpp"
 #include "methods/rectilinear.hpp"
 
@@ -20,6 +21,10 @@ struct GridCosts {
   double pmm_counted;    ///< one sub-element counted per octant (a window of <= 2 x 2 x 2 mesh cells)
   double exact_particle;
   double exact_cell;     ///< one cell of the sphere's box of cells (closed-form sphere-box overlap)
+  /// exact on a ball within at most 2 x 2 x 2 cells of a Cartesian grid: all its parts from
+  /// one closed-form call (methods/exact.hpp); unused on a rectilinear grid
+  double exact_octant_particle;
+  double exact_octant_cell;
 };
 struct PolyCosts {
   double pmm_particle;    ///< locate, rotation
@@ -47,6 +52,7 @@ struct PathCosts {
   std::int64_t pmm_points = 0;  ///< the sub-elements pmm's estimate counts (0 on its own fast path)
   bool counted = false;         ///< pmm would count per octant
   std::int64_t exact_cells = 0; ///< exact's cells (polyMesh: the candidates, also pmm's)
+  bool exact_octants = false;   ///< Cartesian grid: the ball spans at most two cells per axis (exact's octant call)
   std::int64_t box_cells = 0, face_points = 0;  ///< polyMesh: exact's cut box cells, cut cells' face points
 };
 PathCosts path_costs(const Context& ctx, Scratch& s, const Particle& p);
@@ -59,24 +65,60 @@ PathCosts path_costs(const PolyContext& ctx, Scratch& s, const Particle& p, bool
 /// pmm_sphere_quick, as method=pmm's fused pass) where they apply, else pmm_particle.
 void grid_pmm(const Context& ctx, Scratch& s, const Particle& p);
 
-/// auto's quick case for a sphere on a Cartesian grid, the choice the full model would make
-/// at a fraction of its cost: when counting pmm's sub-elements per octant costs less than
-/// exact on the fewest cells it can take (two), a sphere whose template lies in at most
-/// 2 x 2 x 2 mesh cells goes to PmmQuick (the fast path or the count). False, with
-/// nothing added or counted, otherwise.
+/// auto's quick case for a sphere on a Cartesian grid, the choice the full model
+/// (path_costs) makes, at a fraction of its cost. When counting pmm's sub-elements per
+/// octant costs less than exact on two cells, pmm's quick case (fast path or count) takes
+/// every sphere it can. Otherwise, for a ball within at most 2 x 2 x 2 cells: the fast path
+/// when it lies in one cell; pmm's quick case when counting costs less than exact on the
+/// ball's cells; else exact's closed-form parts of the window. False, with nothing added or
+/// counted, for any other sphere, and where the full model could choose otherwise (pmm's
+/// template in one cell while the ball is not: its estimate is then 0).
 template <class Sink>
-bool auto_sphere_quick(const PmmQuick& quick, Scratch& s, const Particle& p, Sink&& sink) {
+[[gnu::always_inline]] inline bool auto_sphere_quick(const PmmQuick& quick, Scratch& s, const Particle& p, Sink&& sink,
+                       PmmQuick::EmptyOctants empty = PmmQuick::EmptyOctants::skip) {
   const Context& ctx = quick.context();
+  const CartesianGrid& grid = ctx.grid;
   const GridCosts& m = cartesian_costs();
-  Particle q = p;
-  q.shape_template = &ctx.template_for(p);  // looked up once
-  if (!(m.pmm_particle + m.pmm_counted * double(q.shape_template->size()) < m.exact_particle + 2 * m.exact_cell))
-    return false;
-  const std::int64_t fast = s.fast_path;
-  if (!quick(s, q, sink)) return false;
-  // One deposit is the fast path when the ball itself lies in the cell (exact's as well).
-  ++(s.fast_path != fast && single_cell(ctx, p.centre, Eigen::Vector3d::Constant(p.radius)) >= 0 ? s.auto_fast
-                                                                                                  : s.auto_pmm);
+  const kernels::ParticleTemplate& t = quick.template_of(p);
+  const double counted = m.pmm_particle + m.pmm_counted * double(t.size());
+  if (counted < m.exact_octant_particle + 2 * m.exact_octant_cell) {
+    // Counting costs less than exact on any window it could take instead (two cells or
+    // more; a window of more than two cells per axis costs exact more still), so exact's
+    // window is not needed: pmm's quick case decides, its fast path counted as auto's when
+    // the ball itself lies in the cell.
+    const std::int64_t fast = s.fast_path;
+    if (!quick(s, p, sink, empty)) return false;
+    if (s.fast_path == fast) {
+      ++s.auto_pmm;
+      return true;
+    }
+    std::int64_t lo[3], hi[3];
+    ++(exact_quick_window(grid, p, lo, hi) && lo[0] == hi[0] && lo[1] == hi[1] && lo[2] == hi[2] ? s.auto_fast
+                                                                                                 : s.auto_pmm);
+    return true;
+  }
+  std::int64_t lo[3], hi[3];
+  if (!ctx.opts.fast_path || !exact_quick_window(grid, p, lo, hi)) return false;
+  const int split = int(hi[0] - lo[0]) + int(hi[1] - lo[1]) + int(hi[2] - lo[2]);
+  if (split == 0) {  // every path's fast path
+    ++s.auto_fast;
+    ++s.fast_path;
+    sink(grid.index(lo[0], lo[1], lo[2]), p.volume);
+    return true;
+  }
+  if (counted < m.exact_octant_particle + double(1 << split) * m.exact_octant_cell) {
+    if (!quick(s, p, sink, empty)) return false;
+    ++s.auto_pmm;
+    return true;
+  }
+  const double half = p.radius * t.reach;
+  bool template_in_one_cell = true;
+  for (int d = 0; d < 3; ++d)
+    template_in_one_cell &= hi[d] == lo[d] || CartesianGrid::fast_floor(grid.axis_coordinate(d, p.centre[d] - half)) ==
+                                                   CartesianGrid::fast_floor(grid.axis_coordinate(d, p.centre[d] + half));
+  if (template_in_one_cell) return false;
+  ++s.auto_exact;
+  exact_window_deposit(grid, s, p, lo, hi, sink);
   return true;
 }
 

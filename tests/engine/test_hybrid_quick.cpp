@@ -1,0 +1,68 @@
+// method=auto's quick case on a Cartesian grid (methods/hybrid.hpp, auto_sphere_quick) must
+// make the choice of the full cost model (path_costs): for every sphere it takes, the path
+// it reports is the one path_costs gives (fast, pmm cheaper, else exact). A quick case that
+// chose otherwise would make a sphere's deposits depend on which of the two it met.
+#include "engine_mesh.hpp"
+#include "methods/hybrid.hpp"
+#include "particle_grid.hpp"
+
+#include <vfe/kernels/divided.hpp>
+
+#include <gtest/gtest.h>
+
+#include <numbers>
+#include <random>
+#include <span>
+
+namespace vfe::detail {
+namespace {
+
+TEST(HybridQuick, TakesTheFullModelsPathForEverySphereItTakes) {
+  Options opts;
+  TemplateCache cache;
+  const kernels::ParticleTemplate divided = kernels::make_divided_template();
+  int took[3] = {0, 0, 0}, declined = 0;
+  for (const double h : {0.001, 0.002}) {
+    const CartesianGridSpec spec{{0, 0, 0}, {h, h, h}, {12, 12, 12}};
+    const EngineMesh mesh(spec);
+    for (const std::int64_t n : {35, 300, 815}) {
+      const kernels::ParticleTemplate* t = &cache.get(opts, n);
+      TemplateBank bank;
+      bank.templates = std::span<const kernels::ParticleTemplate* const>(&t, 1);
+      bank.fixed = true;
+      const Context ctx{MethodContext{opts, bank, divided}, *mesh.cartesian()};
+      const PmmQuick quick(ctx);
+      std::mt19937_64 rng(static_cast<std::uint64_t>(n) + 7);
+      std::uniform_real_distribution<double> at(0.0, 12 * h), size(0.05 * h, 0.7 * h);
+      for (int i = 0; i < 3000; ++i) {
+        const double r = size(rng);
+        const Particle p{i, Eigen::Vector3d(at(rng), at(rng), at(rng)), r, 4.0 / 3.0 * std::numbers::pi * r * r * r,
+                         nullptr, static_cast<std::uint64_t>(i)};
+        Scratch model;
+        const PathCosts k = path_costs(ctx, model, p);
+        const int expected = k.fast ? 0 : (k.pmm < k.exact ? 1 : 2);
+        Scratch s;
+        double added = 0;
+        if (!auto_sphere_quick(quick, s, p, [&](std::int64_t, double v) { added += v; })) {
+          EXPECT_EQ(s.auto_fast + s.auto_pmm + s.auto_exact, 0);
+          ++declined;
+          continue;
+        }
+        ASSERT_EQ(s.auto_fast + s.auto_pmm + s.auto_exact, 1);
+        const int path = s.auto_fast ? 0 : (s.auto_pmm ? 1 : 2);
+        EXPECT_EQ(path, expected) << "h " << h << ", n " << n << ", sphere " << i << ": pmm " << k.pmm << " ns, exact "
+                                  << k.exact << " ns";
+        if (path != 1) EXPECT_NEAR(added, p.volume, 1e-13 * p.volume);  // exact, fast: the ball inside the grid
+        ++took[path];
+      }
+    }
+  }
+  // Each path is taken, and the quick case serves most spheres.
+  EXPECT_GT(took[0], 0);
+  EXPECT_GT(took[1], 0);
+  EXPECT_GT(took[2], 0);
+  EXPECT_GT(took[0] + took[1] + took[2], 2 * declined);
+}
+
+}  // namespace
+}  // namespace vfe::detail
