@@ -15,6 +15,14 @@ using v4d = double __attribute__((vector_size(32)));
 using v4l = std::int64_t __attribute__((vector_size(32)));
 using v4i = std::int32_t __attribute__((vector_size(16)));
 
+// Lanes i, j, k, l of the eight of a and b (GCC and Clang name the builtin differently; a
+// macro, since a function returning a 256-bit vector would change the baseline build's ABI).
+#if defined(__clang__)
+#define VFE_SHUFFLE4(a, b, i, j, k, l) __builtin_shufflevector(a, b, i, j, k, l)
+#else
+#define VFE_SHUFFLE4(a, b, i, j, k, l) __builtin_shuffle(a, b, v4l{i, j, k, l})
+#endif
+
 constexpr double k4pi3 = 4.0 / 3.0 * std::numbers::pi;  // sphere_volume's factor, the same rounding
 
 inline double read_double(const char* p) {
@@ -105,12 +113,12 @@ template <bool kPacked, bool kDeposit>
       std::memcpy(&a1, c + 32, sizeof a1);
       std::memcpy(&a2, c + 64, sizeof a2);
       std::memcpy(&rad, r, sizeof rad);
-      const v4d p = __builtin_shuffle(a0, a1, v4l{0, 1, 6, 7});  // x0 y0 x2 y2
-      const v4d q = __builtin_shuffle(a0, a2, v4l{2, 3, 4, 5});  // z0 x1 z2 x3
-      const v4d s = __builtin_shuffle(a1, a2, v4l{0, 1, 6, 7});  // y1 z1 y3 z3
-      x = __builtin_shuffle(p, q, v4l{0, 5, 2, 7});
-      y = __builtin_shuffle(p, s, v4l{1, 4, 3, 6});
-      z = __builtin_shuffle(q, s, v4l{0, 5, 2, 7});
+      const v4d p = VFE_SHUFFLE4(a0, a1, 0, 1, 6, 7);  // x0 y0 x2 y2
+      const v4d q = VFE_SHUFFLE4(a0, a2, 2, 3, 4, 5);  // z0 x1 z2 x3
+      const v4d s = VFE_SHUFFLE4(a1, a2, 0, 1, 6, 7);  // y1 z1 y3 z3
+      x = VFE_SHUFFLE4(p, q, 0, 5, 2, 7);
+      y = VFE_SHUFFLE4(p, s, 1, 4, 3, 6);
+      z = VFE_SHUFFLE4(q, s, 0, 5, 2, 7);
     } else {
       const std::int64_t j1 = std::min(1, lanes - 1), j2 = std::min(2, lanes - 1), j3 = std::min(3, lanes - 1);
       x = v4d{read_double(c), read_double(c + j1 * cs), read_double(c + j2 * cs), read_double(c + j3 * cs)};
@@ -193,7 +201,7 @@ bool has_v3() {
 #endif
 
 std::int64_t pass(const ParticleArrays& pa, std::int64_t first, std::int64_t count, const SphereBounds& b,
-                  const CentreGrid* g, Validation& a, std::int64_t* left, PassBuild build) {
+                  const CentreGrid* g, Validation& a, std::int64_t* left, [[maybe_unused]] PassBuild build) {
 #ifdef VFE_SPHERE_PASS_V3
   if (build == PassBuild::fastest && has_v3()) return v3_pass(pa, first, count, b, g, a, left);
 #endif
