@@ -480,39 +480,31 @@ struct Engine::Impl {
   void fused_pmm(const ParticleArrays& pa, const detail::AccumulationPlan& pl, const detail::TemplateBank& bank) {
     const detail::Context ctx{detail::MethodContext{opts, bank, divided}, *mesh.cartesian()};
     const detail::PmmQuick quick(ctx);
-    acc.deposit_private(pl, pa.n, [&](auto&& thread_field) {
-      arena->execute([&] {
-        tbb::parallel_for(tbb::blocked_range<std::int64_t>(0, pa.n, 256), [&](const tbb::blocked_range<std::int64_t>& r) {
-          Scratch& s = scratch.local();
-          double* const field = thread_field();
-          auto add = [field](std::int64_t cell, double v) { field[cell] += v; };
-          const bool hybrid = opts.method == Method::automatic;
-          // One particle record for the range, its per-particle fields set in the loop
-          // (building a whole record per particle costs as much as a quick case).
-          detail::Particle part{0, Eigen::Vector3d::Zero(), 0.0, 0.0, nullptr, 0};
-          for (std::int64_t p = r.begin(); p < r.end(); ++p) {
-            __builtin_prefetch(pa.centres + (p + 16) * pa.centres_stride);
-            __builtin_prefetch(pa.radii + (p + 16) * pa.radii_stride);
-            const double radius = pa.radius(p);
-            part.index = pa.host(p);
-            part.centre = pa.centre(p);
-            part.radius = radius;
-            part.volume = sphere_volume(radius);
-            part.rotation_key = pa.rotation_key(p);
-            // An octant without sub-elements may add 0.0: a cell of the private field stays as it is.
-            if (hybrid ? detail::auto_sphere_quick(quick, s, part, add, detail::PmmQuick::EmptyOctants::add_zero)
-                       : quick(s, part, add, detail::PmmQuick::EmptyOctants::add_zero))
-              continue;
-            s.deposits.clear();
-            if (hybrid)
-              detail::auto_particle(ctx, s, particle(pa, p));
-            else
-              detail::pmm_particle(ctx, s, particle(pa, p));
-            for (const Deposit& d : s.deposits) add(d.cell, d.volume);
-          }
-        });
-      });
-      return 0;
+    const bool hybrid = opts.method == Method::automatic;
+    private_field_pass(pa, pl, [&](Scratch& s, auto&& add, const tbb::blocked_range<std::int64_t>& r) {
+      // One particle record for the range, its per-particle fields set in the loop
+      // (building a whole record per particle costs as much as a quick case).
+      detail::Particle part{0, Eigen::Vector3d::Zero(), 0.0, 0.0, nullptr, 0};
+      for (std::int64_t p = r.begin(); p < r.end(); ++p) {
+        __builtin_prefetch(pa.centres + (p + 16) * pa.centres_stride);
+        __builtin_prefetch(pa.radii + (p + 16) * pa.radii_stride);
+        const double radius = pa.radius(p);
+        part.index = pa.host(p);
+        part.centre = pa.centre(p);
+        part.radius = radius;
+        part.volume = sphere_volume(radius);
+        part.rotation_key = pa.rotation_key(p);
+        // An octant without sub-elements may add 0.0: a cell of the private field stays as it is.
+        if (hybrid ? detail::auto_sphere_quick(quick, s, part, add, detail::PmmQuick::EmptyOctants::add_zero)
+                   : quick(s, part, add, detail::PmmQuick::EmptyOctants::add_zero))
+          continue;
+        s.deposits.clear();
+        if (hybrid)
+          detail::auto_particle(ctx, s, particle(pa, p));
+        else
+          detail::pmm_particle(ctx, s, particle(pa, p));
+        for (const Deposit& d : s.deposits) add(d.cell, d.volume);
+      }
     });
   }
 
