@@ -10,7 +10,8 @@ namespace vfe::detail {
 namespace {
 
 // Measured with `build/release/vfe_bench_auto_costs` (one thread, Release build;
-// docs/performance.md, "method=auto"): whole computes of pmm and exact on groups of random
+// docs/performance.md, "method=auto"; the Cartesian constants the mean of two runs, after
+// the octant count, the one-pass direct and exact's octant call): whole computes of pmm and exact on groups of random
 // spheres per mesh kind, each path's time per sphere fitted to its mean work by least
 // squares, every constant >= 0 (a work measure that others explain gets 0).
 constexpr GridCosts kCartesian{36, 2.5, 0.19, 106, 56, 22.4, 11.2};
@@ -56,14 +57,15 @@ PathCosts path_costs(const Context& ctx, Scratch& /*unused on a grid*/, const Pa
     k.pmm = m.pmm_particle + double(k.pmm_points) * (k.counted ? m.pmm_counted : m.pmm_point);
   }
   double cells = 1;
-  for (int d = 0; d < 3; ++d)
-    cells *= double(cells_of_box(grid.axis_index(d, c[d] - r), grid.axis_index(d, c[d] + r), grid.cells()[d],
-                                 grid.periodic(d)));
-  k.exact_cells = static_cast<std::int64_t>(std::min(cells, 1e18));
   // exact's octant call serves a ball over at most two cells per axis, periodic or beyond
   // the mesh alike (in global cell units: a rank's block decides as the whole grid does).
   k.exact_octants = true;
-  for (int d = 0; d < 3; ++d) k.exact_octants &= grid.axis_index(d, c[d] + r) - grid.axis_index(d, c[d] - r) <= 1;
+  for (int d = 0; d < 3; ++d) {
+    const std::int64_t lo = grid.axis_index(d, c[d] - r), hi = grid.axis_index(d, c[d] + r);
+    cells *= double(cells_of_box(lo, hi, grid.cells()[d], grid.periodic(d)));
+    k.exact_octants &= hi - lo <= 1;
+  }
+  k.exact_cells = static_cast<std::int64_t>(std::min(cells, 1e18));
   k.exact = k.exact_octants ? m.exact_octant_particle + cells * m.exact_octant_cell
                             : m.exact_particle + cells * m.exact_cell;
   return k;
