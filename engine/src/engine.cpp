@@ -485,6 +485,30 @@ struct Engine::Impl {
       // One particle record for the range, its per-particle fields set in the loop
       // (building a whole record per particle costs as much as a quick case).
       detail::Particle part{0, Eigen::Vector3d::Zero(), 0.0, 0.0, nullptr, 0};
+      auto general = [&](std::int64_t p) {
+        s.deposits.clear();
+        if (hybrid)
+          detail::auto_particle(ctx, s, particle(pa, p));
+        else
+          detail::pmm_particle(ctx, s, particle(pa, p));
+        for (const Deposit& d : s.deposits) add(d.cell, d.volume);
+      };
+      if (const detail::QuickGrid* g = hybrid ? nullptr : quick.window_grid()) {
+        // Windows and thresholds of a few spheres at once (pmm_plan.hpp), then their counts.
+        detail::QuickWindows windows;
+        for (std::int64_t first = r.begin(); first < r.end(); first += detail::kQuickBlock) {
+          const std::int64_t count = std::min(detail::kQuickBlock, r.end() - first);
+          detail::plan_sphere_windows(pa, first, count, *g, windows);
+          for (std::int64_t i = 0; i < count; ++i) {
+            const std::int64_t p = first + i;
+            // An octant without sub-elements may add 0.0: a cell of the private field stays as it is.
+            if (!quick.finish_window(s, windows, i, sphere_volume(pa.radius(p)), pa.rotation_key(p), add,
+                                     detail::PmmQuick::EmptyOctants::add_zero))
+              general(p);
+          }
+        }
+        return;
+      }
       for (std::int64_t p = r.begin(); p < r.end(); ++p) {
         __builtin_prefetch(pa.centres + (p + 16) * pa.centres_stride);
         __builtin_prefetch(pa.radii + (p + 16) * pa.radii_stride);
@@ -498,12 +522,7 @@ struct Engine::Impl {
         if (hybrid ? detail::auto_sphere_quick(quick, s, part, add, detail::PmmQuick::EmptyOctants::add_zero)
                    : quick(s, part, add, detail::PmmQuick::EmptyOctants::add_zero))
           continue;
-        s.deposits.clear();
-        if (hybrid)
-          detail::auto_particle(ctx, s, particle(pa, p));
-        else
-          detail::pmm_particle(ctx, s, particle(pa, p));
-        for (const Deposit& d : s.deposits) add(d.cell, d.volume);
+        general(p);
       }
     });
   }

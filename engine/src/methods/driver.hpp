@@ -8,6 +8,7 @@
 #include "cartesian_grid.hpp"
 #include "options.hpp"
 #include "particle_grid.hpp"
+#include "pmm_plan.hpp"
 
 #include <vfe/kernels/octant_split.hpp>
 #include <vfe/kernels/particle_template.hpp>
@@ -322,6 +323,22 @@ class PmmQuick {
     min_counted_radius_ = 1e-6 * h_max;
     nx_ = grid.cells()[0], nxy_ = nx_ * grid.cells()[1];
     for (unsigned o = 0; o < 8; ++o) corner_offset_[o] = (o & 1) + nx_ * ((o >> 1) & 1) + nxy_ * ((o >> 2) & 1);
+    if (single_) single_size_ = static_cast<std::int64_t>(single_->size());
+    window_grid_ = usable_ && from_origin_ && single_ && bank_rows_ && grid.cell_count() < (std::int64_t(1) << 31);
+    for (int d = 0; d < 3; ++d) {
+      window_grid_ = window_grid_ && first_[d] == 0;
+      quick_grid_.origin[d] = origin_[d];
+      quick_grid_.inv_h[d] = inv_h_[d];
+      quick_grid_.h[d] = h_[d];
+      quick_grid_.hi_bound[d] = hi_bound_[d];
+    }
+    if (single_) {
+      quick_grid_.reach = single_->reach;
+      quick_grid_.countable = !single_->split_points.empty();
+    }
+    quick_grid_.min_radius = min_counted_radius_;
+    quick_grid_.nx = static_cast<std::int32_t>(window_grid_ ? nx_ : 0);
+    quick_grid_.nxy = static_cast<std::int32_t>(window_grid_ ? nxy_ : 0);
   }
 
   const Context& context() const { return ctx_; }
@@ -383,13 +400,47 @@ class PmmQuick {
     float buffer[9];
     const float* rows = bank_rows_ ? bank_rows_ + 9 * kernels::rotation_bank_slot(p.rotation_key, seed_)
                                    : particle_rotation_rows(ctx_.opts, p, buffer);
-    std::int32_t counts[8];
     const kernels::OctantCounter& counter = single_ && !p.shape_template ? *counter_ : kernels::octant_counter(t);
+    return count_and_add(s, t, counter, rows, tau, two, cell, p.volume, sink, empty);
+  }
+
+  /// plan_sphere_windows' grid for this context, or null where the quick cases need more than
+  /// it decides (a block, periodic axes, several templates, rotations not from the bank,
+  /// 2^31 cells or more along an axis).
+  const QuickGrid* window_grid() const { return window_grid_ ? &quick_grid_ : nullptr; }
+
+  /// operator() for sphere i of a block planned by plan_sphere_windows on window_grid(): its
+  /// volume and rotation key as the Particle's.
+  template <class Sink>
+  [[gnu::always_inline]] bool finish_window(Scratch& s, const QuickWindows& w, std::int64_t i, double volume,
+                                            std::uint64_t rotation_key, Sink&& sink,
+                                            EmptyOctants empty = EmptyOctants::skip) const {
+    if (w.kind[i] == QuickWindows::fast) {
+      s.count_grid(single_size_);
+      ++s.fast_path;
+      sink(w.cell[i], volume);
+      return true;
+    }
+    if (w.kind[i] != QuickWindows::count) return false;
+    const float tau[3] = {w.tau[0][i], w.tau[1][i], w.tau[2][i]};
+    return count_and_add(s, *single_, *counter_, bank_rows_ + 9 * kernels::rotation_bank_slot(rotation_key, seed_),
+                         tau, static_cast<unsigned>(w.two[i]), w.cell[i], volume, sink, empty);
+  }
+
+ private:
+  /// The octant count of a window of first cell `cell` and split axes `two`, and its adds.
+  template <class Sink>
+  [[gnu::always_inline]] bool count_and_add(Scratch& s, const kernels::ParticleTemplate& t,
+                                            const kernels::OctantCounter& counter, const float* rows,
+                                            const float tau[3], unsigned two, std::int64_t cell, double volume,
+                                            Sink&& sink, EmptyOctants empty) const {
+    std::int32_t counts[8];
     if (!counter.by_split[two](t, rows, tau, counts)) return false;
+    const auto size = static_cast<std::int64_t>(t.size());
     ++s.counted;
     s.count_grid(size);
     s.sub_elements += size;
-    const double share = p.volume * t.fractions[0];
+    const double share = volume * t.fractions[0];
     for (unsigned o = two;; o = (o - 1) & two) {  // the octants the split axes reach
       if (counts[o] || empty == EmptyOctants::add_zero) sink(cell + corner_offset_[o], share * double(counts[o]));
       if (o == 0) break;
@@ -397,7 +448,6 @@ class PmmQuick {
     return true;
   }
 
- private:
   const Context& ctx_;
   const kernels::ParticleTemplate* single_;  ///< the bank's one template, or null
   const kernels::OctantCounter* counter_;  ///< single_'s counting code
@@ -406,6 +456,9 @@ class PmmQuick {
   bool usable_, from_origin_;
   double origin_[3], inv_h_[3], h_[3], lo_bound_[3], hi_bound_[3], min_counted_radius_;
   std::int64_t first_[3], nx_, nxy_, corner_offset_[8];
+  std::int64_t single_size_ = 0;
+  QuickGrid quick_grid_{};
+  bool window_grid_ = false;
 };
 
 /// PmmQuick for one particle (callers that meet a particle at a time).

@@ -1,0 +1,39 @@
+// pmm's quick cases decided for several spheres at once: each sphere's window of cells and,
+// where it spans at most two cells per axis, the thresholds of its octant count
+// (methods/driver.hpp, PmmQuick), four spheres a step, built for baseline x86-64 and for
+// x86-64-v3 (used when the CPU has it) with the same results as one sphere at a time.
+#pragma once
+
+#include "particle_arrays.hpp"
+
+#include <cstdint>
+
+namespace vfe::detail {
+
+/// A Cartesian grid from its origin (not a block, fewer than 2^31 cells) as the planning
+/// reads it, and the one template's reach.
+struct QuickGrid {
+  double origin[3], inv_h[3], h[3], hi_bound[3];  ///< hi_bound: the cell count per axis
+  double reach;       ///< of the template, in radii
+  double min_radius;  ///< counting needs r above this
+  bool countable;     ///< the template can be counted per octant
+  std::int32_t nx, nxy;
+};
+
+/// The quick cases of up to kQuickBlock spheres, entry i for sphere first + i.
+inline constexpr std::int64_t kQuickBlock = 16;
+struct QuickWindows {
+  enum Kind : std::int32_t { general, fast, count };
+  std::int32_t kind[kQuickBlock];
+  std::int32_t two[kQuickBlock];   ///< count: bit d set when the window has two cells along d
+  std::int32_t cell[kQuickBlock];  ///< fast or count: the window's first cell
+  float tau[3][kQuickBlock];       ///< count: the thresholds per axis (PmmQuick's)
+};
+
+/// The quick cases of spheres [first, first + count) of pa (count <= kQuickBlock):
+/// PmmQuick's decisions, bit for bit.
+enum class PlanBuild { fastest, baseline };
+void plan_sphere_windows(const ParticleArrays& pa, std::int64_t first, std::int64_t count, const QuickGrid& g,
+                         QuickWindows& out, PlanBuild build = PlanBuild::fastest);
+
+}  // namespace vfe::detail
