@@ -30,6 +30,10 @@ inline double read_double(const char* p) {
     c[l] = pa.centres + q * pa.centres_stride;
     rp[l] = pa.radii + q * pa.radii_stride;
   }
+  // The hardware prefetcher does not keep up with the particle stream here.
+  __builtin_prefetch(c[0] + 16 * pa.centres_stride);
+  __builtin_prefetch(c[0] + 16 * pa.centres_stride + 64);
+  __builtin_prefetch(rp[0] + 16 * pa.radii_stride);
   const v4d r = {read_double(rp[0]), read_double(rp[1]), read_double(rp[2]), read_double(rp[3])};
   const v4d half = r * g.reach;
   const v4d inv_r = 1.0 / r;
