@@ -499,13 +499,15 @@ struct Engine::Impl {
         for (std::int64_t first = r.begin(); first < r.end(); first += detail::kQuickBlock) {
           const std::int64_t count = std::min(detail::kQuickBlock, r.end() - first);
           detail::plan_sphere_windows(pa, first, count, *g, windows);
+          detail::PmmQuick::Tally tally;
           for (std::int64_t i = 0; i < count; ++i) {
             const std::int64_t p = first + i;
             // An octant without sub-elements may add 0.0: a cell of the private field stays as it is.
-            if (!quick.finish_window(s, windows, i, sphere_volume(pa.radius(p)), pa.rotation_key(p), add,
+            if (!quick.finish_window(tally, windows, i, sphere_volume(pa.radius(p)), pa.rotation_key(p), add,
                                      detail::PmmQuick::EmptyOctants::add_zero))
               general(p);
           }
+          quick.commit(s, tally);
         }
         return;
       }

@@ -1,5 +1,7 @@
 #include "sphere_pass.hpp"
 
+#include "sphere_lanes.hpp"
+
 #include <algorithm>
 #include <cstring>
 #include <limits>
@@ -9,27 +11,9 @@
 namespace vfe::detail {
 namespace {
 
-// GCC's vector types: one source for both builds, four particles per step as two SSE2
-// registers or one AVX register, the same operations on every lane either way.
-using v4d = double __attribute__((vector_size(32)));
-using v4l = std::int64_t __attribute__((vector_size(32)));
-using v4i = std::int32_t __attribute__((vector_size(16)));
-
-// Lanes i, j, k, l of the eight of a and b (GCC and Clang name the builtin differently; a
-// macro, since a function returning a 256-bit vector would change the baseline build's ABI).
-#if defined(__clang__)
-#define VFE_SHUFFLE4(a, b, i, j, k, l) __builtin_shufflevector(a, b, i, j, k, l)
-#else
-#define VFE_SHUFFLE4(a, b, i, j, k, l) __builtin_shuffle(a, b, v4l{i, j, k, l})
-#endif
+using namespace lanes;
 
 constexpr double k4pi3 = 4.0 / 3.0 * std::numbers::pi;  // sphere_volume's factor, the same rounding
-
-inline double read_double(const char* p) {
-  double x;
-  std::memcpy(&x, p, sizeof x);
-  return x;
-}
 
 /// The chunk again one by one, after the fast loop met a bad particle: a.first_bad, and
 /// the sums over the good ones.
@@ -94,40 +78,8 @@ template <bool kPacked, bool kDeposit>
     const char* c = cc + k * cs;
     const char* r = rr + k * rs;
     v4d x, y, z, rad;
-    if constexpr (kPacked) {
-      // This machine's hardware prefetcher does not follow the particle stream: ask for
-      // the particles 16 ahead (past the end is harmless).
-      __builtin_prefetch(c + 16 * 24);
-      __builtin_prefetch(c + 16 * 24 + 64);
-      __builtin_prefetch(r + 16 * 8);
-    } else {
-      for (int l = 0; l < 4; ++l) {
-        __builtin_prefetch(c + (16 + l) * cs);
-        __builtin_prefetch(r + (16 + l) * rs);
-      }
-    }
-    if constexpr (kPacked && decltype(whole)::value) {
-      // Four whole particles: three loads of x0 y0 z0 x1 | y1 z1 x2 y2 | z2 x3 y3 z3, transposed.
-      v4d a0, a1, a2;
-      std::memcpy(&a0, c, sizeof a0);
-      std::memcpy(&a1, c + 32, sizeof a1);
-      std::memcpy(&a2, c + 64, sizeof a2);
-      std::memcpy(&rad, r, sizeof rad);
-      const v4d p = VFE_SHUFFLE4(a0, a1, 0, 1, 6, 7);  // x0 y0 x2 y2
-      const v4d q = VFE_SHUFFLE4(a0, a2, 2, 3, 4, 5);  // z0 x1 z2 x3
-      const v4d s = VFE_SHUFFLE4(a1, a2, 0, 1, 6, 7);  // y1 z1 y3 z3
-      x = VFE_SHUFFLE4(p, q, 0, 5, 2, 7);
-      y = VFE_SHUFFLE4(p, s, 1, 4, 3, 6);
-      z = VFE_SHUFFLE4(q, s, 0, 5, 2, 7);
-    } else {
-      const std::int64_t j1 = std::min(1, lanes - 1), j2 = std::min(2, lanes - 1), j3 = std::min(3, lanes - 1);
-      x = v4d{read_double(c), read_double(c + j1 * cs), read_double(c + j2 * cs), read_double(c + j3 * cs)};
-      y = v4d{read_double(c + 8), read_double(c + j1 * cs + 8), read_double(c + j2 * cs + 8),
-              read_double(c + j3 * cs + 8)};
-      z = v4d{read_double(c + 16), read_double(c + j1 * cs + 16), read_double(c + j2 * cs + 16),
-              read_double(c + j3 * cs + 16)};
-      rad = v4d{read_double(r), read_double(r + j1 * rs), read_double(r + j2 * rs), read_double(r + j3 * rs)};
-    }
+    prefetch_spheres<kPacked>(c, r, cs, rs);
+    load_spheres<kPacked && decltype(whole)::value>(c, r, cs, rs, lanes, x, y, z, rad);
     const v4l valid = {-1, lanes > 1 ? -1 : 0, lanes > 2 ? -1 : 0, lanes > 3 ? -1 : 0};
     const v4d v = k4pi3 * rad * rad * rad;
     // particle_values_ok on four lanes (r > 0 follows from v >= the smallest normal).
@@ -170,8 +122,6 @@ template <bool kPacked, bool kDeposit>
   a.beyond += beyond[0] + beyond[1] + beyond[2] + beyond[3];
   return nleft;
 }
-
-bool packed(const ParticleArrays& pa) { return pa.centres_stride == 24 && pa.radii_stride == 8; }
 
 template <bool kDeposit>
 [[gnu::always_inline]] inline std::int64_t either_pass(const ParticleArrays& pa, std::int64_t first, std::int64_t count,

@@ -409,22 +409,39 @@ class PmmQuick {
   /// 2^31 cells or more along an axis).
   const QuickGrid* window_grid() const { return window_grid_ ? &quick_grid_ : nullptr; }
 
+  /// What finish_window took, tallied over a block and added to the Scratch's counters once
+  /// (commit): counters in memory cost a load and a store per particle around every call.
+  struct Tally {
+    std::int64_t fast = 0, counted = 0;
+  };
+  void commit(Scratch& s, const Tally& t) const {
+    if (t.fast + t.counted == 0) return;
+    s.count_grid(single_size_);
+    s.fast_path += t.fast;
+    s.counted += t.counted;
+    s.sub_elements += t.counted * single_size_;
+  }
+
   /// operator() for sphere i of a block planned by plan_sphere_windows on window_grid(): its
-  /// volume and rotation key as the Particle's.
+  /// volume and rotation key as the Particle's; tallies what it took.
   template <class Sink>
-  [[gnu::always_inline]] bool finish_window(Scratch& s, const QuickWindows& w, std::int64_t i, double volume,
+  [[gnu::always_inline]] bool finish_window(Tally& tally, const QuickWindows& w, std::int64_t i, double volume,
                                             std::uint64_t rotation_key, Sink&& sink,
                                             EmptyOctants empty = EmptyOctants::skip) const {
     if (w.kind[i] == QuickWindows::fast) {
-      s.count_grid(single_size_);
-      ++s.fast_path;
+      ++tally.fast;
       sink(w.cell[i], volume);
       return true;
     }
     if (w.kind[i] != QuickWindows::count) return false;
     const float tau[3] = {w.tau[0][i], w.tau[1][i], w.tau[2][i]};
-    return count_and_add(s, *single_, *counter_, bank_rows_ + 9 * kernels::rotation_bank_slot(rotation_key, seed_),
-                         tau, static_cast<unsigned>(w.two[i]), w.cell[i], volume, sink, empty);
+    std::int32_t counts[8];
+    if (!counter_->by_split[w.two[i]](*single_, bank_rows_ + 9 * kernels::rotation_bank_slot(rotation_key, seed_),
+                                      tau, counts))
+      return false;
+    ++tally.counted;
+    add_octants(counts, static_cast<unsigned>(w.two[i]), w.cell[i], volume * single_->fractions[0], sink, empty);
+    return true;
   }
 
  private:
@@ -440,12 +457,18 @@ class PmmQuick {
     ++s.counted;
     s.count_grid(size);
     s.sub_elements += size;
-    const double share = volume * t.fractions[0];
-    for (unsigned o = two;; o = (o - 1) & two) {  // the octants the split axes reach
+    add_octants(counts, two, cell, volume * t.fractions[0], sink, empty);
+    return true;
+  }
+
+  /// A count's adds: share per sub-element into each octant the split axes reach.
+  template <class Sink>
+  [[gnu::always_inline]] void add_octants(const std::int32_t counts[8], unsigned two, std::int64_t cell,
+                                          double share, Sink&& sink, EmptyOctants empty) const {
+    for (unsigned o = two;; o = (o - 1) & two) {
       if (counts[o] || empty == EmptyOctants::add_zero) sink(cell + corner_offset_[o], share * double(counts[o]));
       if (o == 0) break;
     }
-    return true;
   }
 
   const Context& ctx_;
