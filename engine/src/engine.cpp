@@ -493,7 +493,10 @@ struct Engine::Impl {
           detail::pmm_particle(ctx, s, particle(pa, p));
         for (const Deposit& d : s.deposits) add(d.cell, d.volume);
       };
-      if (const detail::QuickGrid* g = hybrid ? nullptr : quick.window_grid()) {
+      // method=auto takes the blocks where it leaves every sphere to pmm's quick case.
+      const detail::QuickGrid* g = quick.window_grid();
+      if (g && hybrid && !detail::auto_counts_every_window(*quick.single_template())) g = nullptr;
+      if (g) {
         // Windows and thresholds of a few spheres at once (pmm_plan.hpp), then their counts.
         detail::QuickWindows windows;
         for (std::int64_t first = r.begin(); first < r.end(); first += detail::kQuickBlock) {
@@ -504,8 +507,13 @@ struct Engine::Impl {
             const std::int64_t p = first + i;
             // An octant without sub-elements may add 0.0: a cell of the private field stays as it is.
             if (!quick.finish_window(tally, windows, i, sphere_volume(pa.radius(p)), pa.rotation_key(p), add,
-                                     detail::PmmQuick::EmptyOctants::add_zero))
+                                     detail::PmmQuick::EmptyOctants::add_zero)) {
               general(p);
+            } else if (hybrid) {
+              part.centre = pa.centre(p);
+              part.radius = pa.radius(p);
+              detail::auto_count_quick(*mesh.cartesian(), s, part, windows.kind[i] == detail::QuickWindows::fast);
+            }
           }
           quick.commit(s, tally);
         }

@@ -84,6 +84,19 @@ TEST(Hybrid, CartesianSpheresTakeTheirPathsResult) {
   EXPECT_GT(paths[2], 0);
 }
 
+// Equal spheres at chi = 2, whose template (one for all) is cheaper to count than exact on
+// any window: the engine runs pmm's quick cases by blocks (the fast path or the count),
+// and every sphere is counted as it is alone.
+TEST(Hybrid, EqualSpheresTakeTheBlocksOfPmmsQuickCases) {
+  Engine e(grid(0.001, 12, 12, 12));
+  const Particles p = random_spheres(7, 150, 0.0015, 0.0105, 0.00025, 0.00025);
+  const auto paths = check_paths(e, p, "threads=1");
+  EXPECT_GT(paths[0], 5);
+  EXPECT_GT(paths[1], 100);
+  EXPECT_EQ(paths[2], 0);
+  EXPECT_GT(e.last_report_value("counted_particles"), 100);
+}
+
 // A graded grid (cells 0.4 to 1.6 mm) and the two polyMeshes that are not boxes, where
 // exact is the polyhedron overlap: snappy's 0.5 mm cells at the tube send spheres to exact,
 // its 2 mm cells to pmm.

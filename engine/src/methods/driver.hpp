@@ -404,6 +404,9 @@ class PmmQuick {
     return count_and_add(s, t, counter, rows, tau, two, cell, p.volume, sink, empty);
   }
 
+  /// The bank's one template, or null.
+  const kernels::ParticleTemplate* single_template() const { return single_; }
+
   /// plan_sphere_windows' grid for this context, or null where the quick cases need more than
   /// it decides (a block, periodic axes, several templates, rotations not from the bank,
   /// 2^31 cells or more along an axis).

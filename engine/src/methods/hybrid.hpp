@@ -73,6 +73,25 @@ void grid_pmm(const Context& ctx, Scratch& s, const Particle& p);
 /// ball's cells; else exact's closed-form parts of the window. False, with nothing added or
 /// counted, for any other sphere, and where the full model could choose otherwise (pmm's
 /// template in one cell while the ball is not: its estimate is then 0).
+/// Whether counting pmm's sub-elements of template t per octant costs less than exact on
+/// any window the count could take instead (two cells or more; a window of more than two
+/// cells per axis costs exact more still): auto_sphere_quick then leaves every sphere to
+/// pmm's quick case, and a pass may run pmm's quick cases by blocks (PmmQuick::finish_window)
+/// and count each sphere they take with auto_count_quick.
+inline bool auto_counts_every_window(const kernels::ParticleTemplate& t) {
+  const GridCosts& m = cartesian_costs();
+  return m.pmm_particle + m.pmm_counted * double(t.size()) < m.exact_octant_particle + 2 * m.exact_octant_cell;
+}
+
+/// Counts a sphere that pmm's quick case took for auto: its fast path is auto's when the
+/// ball itself lies in the cell, else (or for a count) the sphere took pmm.
+inline void auto_count_quick(const CartesianGrid& grid, Scratch& s, const Particle& p, bool fast_path) {
+  std::int64_t lo[3], hi[3];
+  ++(fast_path && exact_quick_window(grid, p, lo, hi) && lo[0] == hi[0] && lo[1] == hi[1] && lo[2] == hi[2]
+         ? s.auto_fast
+         : s.auto_pmm);
+}
+
 template <class Sink>
 [[gnu::always_inline]] inline bool auto_sphere_quick(const PmmQuick& quick, Scratch& s, const Particle& p, Sink&& sink,
                        PmmQuick::EmptyOctants empty = PmmQuick::EmptyOctants::skip) {
@@ -81,20 +100,11 @@ template <class Sink>
   const GridCosts& m = cartesian_costs();
   const kernels::ParticleTemplate& t = quick.template_of(p);
   const double counted = m.pmm_particle + m.pmm_counted * double(t.size());
-  if (counted < m.exact_octant_particle + 2 * m.exact_octant_cell) {
-    // Counting costs less than exact on any window it could take instead (two cells or
-    // more; a window of more than two cells per axis costs exact more still), so exact's
-    // window is not needed: pmm's quick case decides, its fast path counted as auto's when
-    // the ball itself lies in the cell.
+  if (auto_counts_every_window(t)) {
+    // exact's window is not needed: pmm's quick case decides.
     const std::int64_t fast = s.fast_path;
     if (!quick(s, p, sink, empty)) return false;
-    if (s.fast_path == fast) {
-      ++s.auto_pmm;
-      return true;
-    }
-    std::int64_t lo[3], hi[3];
-    ++(exact_quick_window(grid, p, lo, hi) && lo[0] == hi[0] && lo[1] == hi[1] && lo[2] == hi[2] ? s.auto_fast
-                                                                                                 : s.auto_pmm);
+    auto_count_quick(grid, s, p, s.fast_path != fast);
     return true;
   }
   std::int64_t lo[3], hi[3];
