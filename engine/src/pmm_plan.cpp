@@ -24,7 +24,9 @@ template <bool kPacked>
   load_spheres<kPacked>(c, rp, cs, rs, lanes, x0, x1, x2, r);
   const v4d xyz[3] = {x0, x1, x2};
   const v4d half = r * g.reach;
-  const v4d inv_r = 1.0 / r;
+  // Spheres too small to count get no thresholds (h / r could pass float's range).
+  const v4l countable_r = (v4l)(r > g.min_radius);
+  const v4d inv_r = (v4d)((v4l)(1.0 / r) & countable_r);
   v4l inside = v4l{} - 1;
   v4i extra = v4i{}, two = v4i{}, cell = v4i{};
   v4f tau[3];
@@ -42,7 +44,7 @@ template <bool kPacked>
     const v4d base = (x - g.origin[d]) * g.inv_h[d] - __builtin_convertvector(i, v4d);
     tau[d] = __builtin_convertvector((1.0 - base) * g.h[d] * inv_r, v4f);
   }
-  const v4i in = __builtin_convertvector(inside, v4i), counts = __builtin_convertvector((v4l)(r > g.min_radius), v4i);
+  const v4i in = __builtin_convertvector(inside, v4i), counts = __builtin_convertvector(countable_r, v4i);
   const v4i one = v4i{} + 1;
   const v4i countable = counts & (extra == one) & (g.countable ? v4i{} - 1 : v4i{});
   const v4i kind = in & (((extra == 0) & std::int32_t{QuickWindows::fast}) | (countable & std::int32_t{QuickWindows::count}));
