@@ -505,14 +505,15 @@ struct Engine::Impl {
           detail::PmmQuick::Tally tally;
           for (std::int64_t i = 0; i < count; ++i) {
             const std::int64_t p = first + i;
+            const double radius = pa.radius(p);
             // An octant without sub-elements may add 0.0: a cell of the private field stays as it is.
-            if (!quick.finish_window(tally, windows, i, sphere_volume(pa.radius(p)), pa.rotation_key(p), add,
+            if (!quick.finish_window(tally, windows, i, sphere_volume(radius), pa.rotation_key(p), add,
                                      detail::PmmQuick::EmptyOctants::add_zero)) {
               general(p);
             } else if (hybrid) {
               part.centre = pa.centre(p);
-              part.radius = pa.radius(p);
-              detail::auto_count_quick(*mesh.cartesian(), s, part, windows.kind[i] == detail::QuickWindows::fast);
+              part.radius = radius;
+              detail::auto_count_quick(ctx.grid, s, part, windows.kind[i] == detail::QuickWindows::fast);
             }
           }
           quick.commit(s, tally);

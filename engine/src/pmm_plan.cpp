@@ -44,9 +44,8 @@ template <bool kPacked>
     const v4d base = (x - g.origin[d]) * g.inv_h[d] - __builtin_convertvector(i, v4d);
     tau[d] = __builtin_convertvector((1.0 - base) * g.h[d] * inv_r, v4f);
   }
-  const v4i in = __builtin_convertvector(inside, v4i), counts = __builtin_convertvector(countable_r, v4i);
-  const v4i one = v4i{} + 1;
-  const v4i countable = counts & (extra == one) & (g.countable ? v4i{} - 1 : v4i{});
+  const v4i in = __builtin_convertvector(inside, v4i), large = __builtin_convertvector(countable_r, v4i);
+  const v4i countable = large & (extra == 1) & (g.countable ? v4i{} - 1 : v4i{});
   const v4i kind = in & (((extra == 0) & std::int32_t{QuickWindows::fast}) | (countable & std::int32_t{QuickWindows::count}));
   std::memcpy(out.kind + k, &kind, sizeof kind);
   std::memcpy(out.two + k, &two, sizeof two);

@@ -310,35 +310,28 @@ class PmmQuick {
     const CartesianGrid& grid = ctx.grid;
     double h_max = 0;
     for (int d = 0; d < 3; ++d) {
-      origin_[d] = grid.origin()[d];
-      inv_h_[d] = 1.0 / grid.spacing()[d];
-      h_[d] = grid.spacing()[d];
-      h_max = std::max(h_max, h_[d]);
+      grid_.origin[d] = grid.origin()[d];
+      grid_.inv_h[d] = 1.0 / grid.spacing()[d];
+      grid_.h[d] = grid.spacing()[d];
+      h_max = std::max(h_max, grid_.h[d]);
       first_[d] = grid.first(d);
       lo_bound_[d] = double(first_[d]);
-      hi_bound_[d] = double(first_[d] + grid.cells()[d]);
+      grid_.hi_bound[d] = double(first_[d] + grid.cells()[d]);
     }
     // Counting needs r / h_d > 1e-6 on each split axis, or the guard band would be below
     // double's resolution; asked of every axis, it is r > 1e-6 h_max.
-    min_counted_radius_ = 1e-6 * h_max;
+    grid_.min_radius = 1e-6 * h_max;
     nx_ = grid.cells()[0], nxy_ = nx_ * grid.cells()[1];
     for (unsigned o = 0; o < 8; ++o) corner_offset_[o] = (o & 1) + nx_ * ((o >> 1) & 1) + nxy_ * ((o >> 2) & 1);
-    if (single_) single_size_ = static_cast<std::int64_t>(single_->size());
-    window_grid_ = usable_ && from_origin_ && single_ && bank_rows_ && grid.cell_count() < (std::int64_t(1) << 31);
-    for (int d = 0; d < 3; ++d) {
-      window_grid_ = window_grid_ && first_[d] == 0;
-      quick_grid_.origin[d] = origin_[d];
-      quick_grid_.inv_h[d] = inv_h_[d];
-      quick_grid_.h[d] = h_[d];
-      quick_grid_.hi_bound[d] = hi_bound_[d];
-    }
+    window_grid_ = usable_ && from_origin_ && single_ && bank_rows_ && grid.cell_count() < (std::int64_t(1) << 31) &&
+                   first_[0] == 0 && first_[1] == 0 && first_[2] == 0;
     if (single_) {
-      quick_grid_.reach = single_->reach;
-      quick_grid_.countable = !single_->split_points.empty();
+      single_size_ = static_cast<std::int64_t>(single_->size());
+      grid_.reach = single_->reach;
+      grid_.countable = !single_->split_points.empty();
     }
-    quick_grid_.min_radius = min_counted_radius_;
-    quick_grid_.nx = static_cast<std::int32_t>(window_grid_ ? nx_ : 0);
-    quick_grid_.nxy = static_cast<std::int32_t>(window_grid_ ? nxy_ : 0);
+    grid_.nx = static_cast<std::int32_t>(window_grid_ ? nx_ : 0);
+    grid_.nxy = static_cast<std::int32_t>(window_grid_ ? nxy_ : 0);
   }
 
   const Context& context() const { return ctx_; }
@@ -368,8 +361,9 @@ class PmmQuick {
     std::int64_t extra = 0;  // or of the window's cells beyond the first per axis
     unsigned two = 0;        // bit d: two cells along d (when extra <= 1)
     for (int d = 0; d < 3; ++d) {
-      const double a = (p.centre[d] - half - origin_[d]) * inv_h_[d], b = (p.centre[d] + half - origin_[d]) * inv_h_[d];
-      if (!(a >= lo_bound_[d] && b < hi_bound_[d])) return false;  // reaches beyond the grid (or NaN)
+      const double a = (p.centre[d] - half - grid_.origin[d]) * grid_.inv_h[d],
+                   b = (p.centre[d] + half - grid_.origin[d]) * grid_.inv_h[d];
+      if (!(a >= lo_bound_[d] && b < grid_.hi_bound[d])) return false;  // reaches beyond the grid (or NaN)
       std::int64_t i, j;
       if (from_origin_) {
         i = static_cast<std::int64_t>(a), j = static_cast<std::int64_t>(b);
@@ -388,20 +382,26 @@ class PmmQuick {
       sink(cell, p.volume);
       return true;
     }
-    if (extra > 1 || t.split_points.empty() || !(r > min_counted_radius_)) return false;
+    if (extra > 1 || t.split_points.empty() || !(r > grid_.min_radius)) return false;
     // base_d + (r / h_d) R_d . q >= 1  <=>  R_d . q >= (1 - base_d) h_d / r, base_d the
     // centre in cell units from the window's corner (deposit_points' base).
     float tau[3];
     const double inv_r = 1.0 / r;
     for (int d = 0; d < 3; ++d) {
-      const double base = (p.centre[d] - origin_[d]) * inv_h_[d] - double(lo[d] + first_[d]);
-      tau[d] = static_cast<float>((1.0 - base) * h_[d] * inv_r);
+      const double base = (p.centre[d] - grid_.origin[d]) * grid_.inv_h[d] - double(lo[d] + first_[d]);
+      tau[d] = static_cast<float>((1.0 - base) * grid_.h[d] * inv_r);
     }
     float buffer[9];
     const float* rows = bank_rows_ ? bank_rows_ + 9 * kernels::rotation_bank_slot(p.rotation_key, seed_)
                                    : particle_rotation_rows(ctx_.opts, p, buffer);
     const kernels::OctantCounter& counter = single_ && !p.shape_template ? *counter_ : kernels::octant_counter(t);
-    return count_and_add(s, t, counter, rows, tau, two, cell, p.volume, sink, empty);
+    std::int32_t counts[8];
+    if (!counter.by_split[two](t, rows, tau, counts)) return false;
+    ++s.counted;
+    s.count_grid(size);
+    s.sub_elements += size;
+    add_octants(counts, two, cell, p.volume * t.fractions[0], sink, empty);
+    return true;
   }
 
   /// The bank's one template, or null.
@@ -410,7 +410,7 @@ class PmmQuick {
   /// plan_sphere_windows' grid for this context, or null where the quick cases need more than
   /// it decides (a block, periodic axes, several templates, rotations not from the bank,
   /// 2^31 cells or more along an axis).
-  const QuickGrid* window_grid() const { return window_grid_ ? &quick_grid_ : nullptr; }
+  const QuickGrid* window_grid() const { return window_grid_ ? &grid_ : nullptr; }
 
   /// What finish_window took, tallied over a block and added to the Scratch's counters once
   /// (commit): counters in memory cost a load and a store per particle around every call.
@@ -448,22 +448,6 @@ class PmmQuick {
   }
 
  private:
-  /// The octant count of a window of first cell `cell` and split axes `two`, and its adds.
-  template <class Sink>
-  [[gnu::always_inline]] bool count_and_add(Scratch& s, const kernels::ParticleTemplate& t,
-                                            const kernels::OctantCounter& counter, const float* rows,
-                                            const float tau[3], unsigned two, std::int64_t cell, double volume,
-                                            Sink&& sink, EmptyOctants empty) const {
-    std::int32_t counts[8];
-    if (!counter.by_split[two](t, rows, tau, counts)) return false;
-    const auto size = static_cast<std::int64_t>(t.size());
-    ++s.counted;
-    s.count_grid(size);
-    s.sub_elements += size;
-    add_octants(counts, two, cell, volume * t.fractions[0], sink, empty);
-    return true;
-  }
-
   /// A count's adds: share per sub-element into each octant the split axes reach.
   template <class Sink>
   [[gnu::always_inline]] void add_octants(const std::int32_t counts[8], unsigned two, std::int64_t cell,
@@ -480,10 +464,11 @@ class PmmQuick {
   const float* bank_rows_;  ///< orientation=random from the bank: its float rows; else null
   std::uint64_t seed_;
   bool usable_, from_origin_;
-  double origin_[3], inv_h_[3], h_[3], lo_bound_[3], hi_bound_[3], min_counted_radius_;
+  /// The grid's numbers both quick paths read (nx and nxy set only for window_grid()).
+  QuickGrid grid_{};
+  double lo_bound_[3];
   std::int64_t first_[3], nx_, nxy_, corner_offset_[8];
   std::int64_t single_size_ = 0;
-  QuickGrid quick_grid_{};
   bool window_grid_ = false;
 };
 

@@ -65,14 +65,12 @@ PathCosts path_costs(const PolyContext& ctx, Scratch& s, const Particle& p, bool
 /// pmm_sphere_quick, as method=pmm's fused pass) where they apply, else pmm_particle.
 void grid_pmm(const Context& ctx, Scratch& s, const Particle& p);
 
-/// auto's quick case for a sphere on a Cartesian grid, the choice the full model
-/// (path_costs) makes, at a fraction of its cost. When counting pmm's sub-elements per
-/// octant costs less than exact on two cells, pmm's quick case (fast path or count) takes
-/// every sphere it can. Otherwise, for a ball within at most 2 x 2 x 2 cells: the fast path
-/// when it lies in one cell; pmm's quick case when counting costs less than exact on the
-/// ball's cells; else exact's closed-form parts of the window. False, with nothing added or
-/// counted, for any other sphere, and where the full model could choose otherwise (pmm's
-/// template in one cell while the ball is not: its estimate is then 0).
+/// The model's cost of pmm's octant count of template t (a window of <= 2 x 2 x 2 cells).
+inline double pmm_counted_cost(const kernels::ParticleTemplate& t) {
+  const GridCosts& m = cartesian_costs();
+  return m.pmm_particle + m.pmm_counted * double(t.size());
+}
+
 /// Whether counting pmm's sub-elements of template t per octant costs less than exact on
 /// any window the count could take instead (two cells or more; a window of more than two
 /// cells per axis costs exact more still): auto_sphere_quick then leaves every sphere to
@@ -80,7 +78,7 @@ void grid_pmm(const Context& ctx, Scratch& s, const Particle& p);
 /// and count each sphere they take with auto_count_quick.
 inline bool auto_counts_every_window(const kernels::ParticleTemplate& t) {
   const GridCosts& m = cartesian_costs();
-  return m.pmm_particle + m.pmm_counted * double(t.size()) < m.exact_octant_particle + 2 * m.exact_octant_cell;
+  return pmm_counted_cost(t) < m.exact_octant_particle + 2 * m.exact_octant_cell;
 }
 
 /// Counts a sphere that pmm's quick case took for auto: its fast path is auto's when the
@@ -92,6 +90,14 @@ inline void auto_count_quick(const CartesianGrid& grid, Scratch& s, const Partic
          : s.auto_pmm);
 }
 
+/// auto's quick case for a sphere on a Cartesian grid, the choice the full model
+/// (path_costs) makes, at a fraction of its cost. When counting pmm's sub-elements per
+/// octant costs less than exact on two cells, pmm's quick case (fast path or count) takes
+/// every sphere it can. Otherwise, for a ball within at most 2 x 2 x 2 cells: the fast path
+/// when it lies in one cell; pmm's quick case when counting costs less than exact on the
+/// ball's cells; else exact's closed-form parts of the window. False, with nothing added or
+/// counted, for any other sphere, and where the full model could choose otherwise (pmm's
+/// template in one cell while the ball is not: its estimate is then 0).
 template <class Sink>
 [[gnu::always_inline]] inline bool auto_sphere_quick(const PmmQuick& quick, Scratch& s, const Particle& p, Sink&& sink,
                        PmmQuick::EmptyOctants empty = PmmQuick::EmptyOctants::skip) {
@@ -99,7 +105,7 @@ template <class Sink>
   const CartesianGrid& grid = ctx.grid;
   const GridCosts& m = cartesian_costs();
   const kernels::ParticleTemplate& t = quick.template_of(p);
-  const double counted = m.pmm_particle + m.pmm_counted * double(t.size());
+  const double counted = pmm_counted_cost(t);
   if (auto_counts_every_window(t)) {
     // exact's window is not needed: pmm's quick case decides.
     const std::int64_t fast = s.fast_path;
