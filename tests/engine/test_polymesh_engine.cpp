@@ -126,9 +126,11 @@ struct SubElementCheck {
 /// outside ones by the policy (nearest: KdTreeLocator::nearest_cell of the point).
 void check_sub_elements(const vfe::PolyMesh& mesh, const vfe::CellLocator& locator, const Particles& bed,
                         const vfe::kernels::ParticleTemplate& t, std::size_t stride, vfe::Outside outside,
-                        vfe::detail::Scratch& s, SubElementCheck& count) {
+                        vfe::detail::Scratch& s, SubElementCheck& count,
+                        vfe::Orientation orientation = vfe::Orientation::random) {
   vfe::Options opts;
   opts.outside = outside;
+  opts.orientation = orientation;
   const vfe::kernels::ParticleTemplate divided = vfe::kernels::make_divided_template();
   const vfe::detail::PolyContext ctx{{opts, {}, divided}, &locator};
   std::map<std::int64_t, double> expected;
@@ -198,6 +200,45 @@ TEST(PolyMeshEngine, SubElementSearchMatchesThePointLocator) {
     if (std::string(name) != "box_graded") {
       EXPECT_GT(count.outside, count.points / 50) << name;  // the outside policies are exercised
     }
+  }
+}
+
+TEST(PolyMeshEngine, SubElementSearchMatchesThePointLocatorForBallsGrazingFacePlanes) {
+  // The walks leave out the faces whose planes the particle's ball stays below. Balls
+  // whose highest point lies within a few 1e-12 of a face's plane (its deep limit, or the
+  // plane itself), with a sub-element at that highest point and others just inside it,
+  // must still get every sub-element in the locator's cell.
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u(0, 1);
+  vfe::detail::Scratch s;
+  for (const char* name : {"cylinder_ogrid_coarse", "snappy_obstacle"}) {
+    const vfe::PolyMesh mesh = vfe::PolyMesh::read(kData + "openfoam/" + name);
+    const vfe::CellLocator locator(mesh);
+    SubElementCheck count;
+    for (int i = 0; i < 1500; ++i) {
+      const auto c = static_cast<std::int64_t>(u(rng) * double(mesh.cell_count())) % mesh.cell_count();
+      const auto faces = mesh.cell_faces(c);
+      const std::int64_t f = faces[static_cast<std::size_t>(u(rng) * double(faces.size())) % faces.size()];
+      const Eigen::Vector3d n = mesh.owner(f) == c ? mesh.face_normal(f) : Eigen::Vector3d(-mesh.face_normal(f));
+      // Unrotated template: a point on the normal at the ball's top, the rest around it.
+      vfe::kernels::ParticleTemplate t;
+      t.family = "fibonacci";
+      t.points = {n, (1 - 1e-13) * n, -n, Eigen::Vector3d::Zero()};
+      const Eigen::Vector3d side = n.unitOrthogonal();
+      for (const double a : {1e-7, 1e-5, 1e-3}) t.points.push_back(std::sqrt(1 - a * a) * n + a * side);
+      t.fractions.assign(t.points.size(), 1.0 / double(t.points.size()));
+      for (const Eigen::Vector3d& q : t.points) t.reach = std::max(t.reach, q.norm());
+      const double r = 0.2e-3 + 0.4e-3 * u(rng);
+      const double base = i % 2 == 0 ? -mesh.face_warp(f) - mesh.location_tolerance() : 0.0;
+      // The highest sub-element's height above the plane.
+      const double top = base + 1e-12 * double(i % 7 - 3) * (r + 1e-3);
+      const Eigen::Vector3d centre = mesh.face_centre(f) + (top - r * t.reach) * n;
+      Particles bed;
+      bed.centres = {centre.x(), centre.y(), centre.z()};
+      bed.radii = {r};
+      check_sub_elements(mesh, locator, bed, t, 1, vfe::Outside::nearest, s, count, vfe::Orientation::none);
+    }
+    EXPECT_EQ(count.particles, 1500) << name;
   }
 }
 

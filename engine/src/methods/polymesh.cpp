@@ -260,7 +260,11 @@ class SubElements {
     return slot;
   }
 
-  /// Visited cell i's face planes, cached on first use.
+  /// Visited cell i's face planes that the particle's ball reaches, cached on first use. A
+  /// face whose plane every point of the ball lies deeper below than its deep limit can
+  /// neither put a sub-element outside the cell nor keep it from being deep, nor be the
+  /// face a walk crosses towards a point outside: leaving it out changes no answer. Most
+  /// cells keep two or three of their faces.
   const Scratch::PolyFace* faces(std::int32_t i) {
     Scratch::PolyCell& cell = s_.poly_cells[static_cast<std::size_t>(i)];
     if (cell.first_face < 0) {
@@ -269,14 +273,21 @@ class SubElements {
       const auto base = mesh_.cell_face_offset(c);
       const double tol = mesh_.location_tolerance();
       cell.first_face = static_cast<std::int64_t>(s_.poly_faces.size());
-      cell.face_count = static_cast<std::int64_t>(list.size());
       for (std::size_t k = 0; k < list.size(); ++k) {
         const auto f = list[k];
-        const bool owned = mesh_.owner(f) == c;
-        s_.poly_faces.push_back({owned ? Eigen::Vector3d(mesh_.face_normal(f)) : Eigen::Vector3d(-mesh_.face_normal(f)),
-                                 mesh_.face_centre(f), mesh_.cell_face_reach(base + static_cast<std::int64_t>(k)) + tol,
-                                 -mesh_.face_warp(f) - tol, mesh_.across(f, c)});
+        const Eigen::Vector3d normal =
+            mesh_.owner(f) == c ? Eigen::Vector3d(mesh_.face_normal(f)) : Eigen::Vector3d(-mesh_.face_normal(f));
+        const Eigen::Vector3d& centre = mesh_.face_centre(f);
+        const double deep_limit = -mesh_.face_warp(f) - tol;
+        // The ball's highest point above the plane, with a bound on the rounding of the
+        // walk's dot products (a few ulps of the lengths involved).
+        const double offset = (p_.centre - centre).norm();
+        if (normal.dot(p_.centre - centre) + half_ + 1e-12 * (offset + half_) < deep_limit) continue;
+        s_.poly_faces.push_back(
+            {normal, centre, mesh_.cell_face_reach(base + static_cast<std::int64_t>(k)) + tol, deep_limit,
+             mesh_.across(f, c)});
       }
+      cell.face_count = static_cast<std::int64_t>(s_.poly_faces.size()) - cell.first_face;
     }
     return s_.poly_faces.data() + cell.first_face;
   }
@@ -373,22 +384,27 @@ class SubElements {
     for (int step = 0; step < kMaxWalkSteps; ++step) {
       const Scratch::PolyFace* list = faces(cur);
       const Scratch::PolyCell& c = s_.poly_cells[static_cast<std::size_t>(cur)];
-      double best = -std::numeric_limits<double>::infinity();
-      std::int64_t next = -1;
+      // Most points lie in the cell the walk tries first: the flags without branches, and
+      // the face to cross only for a point that is not there.
       bool outside = false, deep = c.deep;
       for (std::int64_t k = 0; k < c.face_count; ++k) {
         const Scratch::PolyFace& f = list[k];
         const double out = f.normal.dot(x - f.centre);
-        outside = outside || out > f.out_limit;
-        deep = deep && out < f.deep_limit;
-        if (out > best) {
-          best = out;
-          next = f.next;
-        }
+        outside |= out > f.out_limit;
+        deep &= out < f.deep_limit;
       }
       if (!outside) {
         const bool in_box = (x.array() >= c.lo.array()).all() && (x.array() <= c.hi.array()).all();
         if (in_box && (deep || cell_contains(mesh_, c.cell, x))) return cur;
+      }
+      double best = -std::numeric_limits<double>::infinity();
+      std::int64_t next = -1;
+      for (std::int64_t k = 0; k < c.face_count; ++k) {
+        const Scratch::PolyFace& f = list[k];
+        if (const double out = f.normal.dot(x - f.centre); out > best) {
+          best = out;
+          next = f.next;
+        }
       }
       if (next < 0) return -1;
       cur = enter(next);
