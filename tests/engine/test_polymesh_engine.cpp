@@ -222,7 +222,6 @@ TEST(PolyMeshEngine, SubElementSearchMatchesThePointLocatorForBallsGrazingFacePl
       const Eigen::Vector3d n = mesh.owner(f) == c ? mesh.face_normal(f) : Eigen::Vector3d(-mesh.face_normal(f));
       // Unrotated template: a point on the normal at the ball's top, the rest around it.
       vfe::kernels::ParticleTemplate t;
-      t.family = "fibonacci";
       t.points = {n, (1 - 1e-13) * n, -n, Eigen::Vector3d::Zero()};
       const Eigen::Vector3d side = n.unitOrthogonal();
       for (const double a : {1e-7, 1e-5, 1e-3}) t.points.push_back(std::sqrt(1 - a * a) * n + a * side);
