@@ -70,6 +70,9 @@ std::optional<BoxLattice> find_box_lattice(const PolyMesh& mesh) {
     slot = c;
   }
   lattice.cell_map[static_cast<std::size_t>(n)] = n;  // n distinct cells filled n slots: all filled
+  lattice.grid_numbering = true;
+  for (std::int64_t i = 0; i < n; ++i)
+    lattice.grid_numbering = lattice.grid_numbering && lattice.cell_map[static_cast<std::size_t>(i)] == i;
   lattice.bounds = Eigen::AlignedBox3d(Eigen::Vector3d(nodes[0].front(), nodes[1].front(), nodes[2].front()),
                                        Eigen::Vector3d(nodes[0].back(), nodes[1].back(), nodes[2].back()));
   // Evenly spaced nodes (to within the tolerance) make a Cartesian grid: O(1) location.

@@ -24,6 +24,9 @@ struct BoxLattice {
   /// Lattice index (x fastest, as the grids) -> polyMesh cell; one more entry maps the
   /// dropped-volume slot to itself.
   std::vector<std::int64_t> cell_map;
+  /// cell_map is the identity: the polyMesh numbers its cells as the grid does (x fastest,
+  /// as blockMesh numbers one block's cells).
+  bool grid_numbering = false;
   Eigen::AlignedBox3d bounds;
   /// How far two coordinates may differ and still be one lattice node (1e-9 of the
   /// smallest cell side).

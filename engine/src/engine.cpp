@@ -403,11 +403,28 @@ struct Engine::Impl {
     return v;
   }
 
+  /// The Cartesian grid the fused passes below compute on: the mesh itself, or the grid of
+  /// a polyMesh's box lattice where that grid's drivers serve every sphere as they are
+  /// (LatticeBoundary::grid; methods/lattice.hpp), its cells renumbered by cell_map (null
+  /// when the numbering is the grid's). grid is null where neither holds.
+  struct FusedGrid {
+    const CartesianGrid* grid = nullptr;
+    const std::int64_t* cell_map = nullptr;
+  };
+  FusedGrid fused_grid() const {
+    if (mesh.kind() == MeshKind::cartesian) return {mesh.cartesian(), nullptr};
+    const detail::BoxLattice* lattice = opts.lattice ? mesh.lattice() : nullptr;
+    if (!lattice || !lattice->cartesian ||
+        detail::lattice_boundary(opts.method, *lattice) != detail::LatticeBoundary::grid)
+      return {};
+    return {&*lattice->cartesian, lattice->grid_numbering ? nullptr : lattice->cell_map.data()};
+  }
+
   /// direct on a Cartesian grid with spheres and private fields: validation, locate and the
   /// add in one pass over the particles, so direct costs little more than reading them.
   bool fuses_direct(const ParticleArrays& pa, const detail::AccumulationPlan& pl) const {
-    return opts.method == Method::direct && mesh.kind() == MeshKind::cartesian && !mesh.cartesian()->is_block() &&
-           !pa.shape_ids &&
+    const FusedGrid fg = fused_grid();
+    return opts.method == Method::direct && fg.grid && !fg.grid->is_block() && !pa.shape_ids &&
            opts.orientation != Orientation::given && pl.strategy == Accumulation::privatised && !pl.uses_blocks() &&
            !pl.touched_only && mesh.cell_count() < detail::kCentreGridCells;
   }
@@ -416,12 +433,15 @@ struct Engine::Impl {
   /// order) and the same cells as direct_particle. A sphere whose centre lies outside the
   /// grid goes through the driver (the outside policy); on a periodic grid every sphere is
   /// wrapped first, as the driver does. Throws validate()'s errors, and the accumulator
-  /// drops what the pass deposited.
+  /// drops what the pass deposited. On a box lattice the grid's cells are renumbered.
   Validation fused_direct(const ParticleArrays& pa, const detail::AccumulationPlan& pl) {
-    const CartesianGrid& grid = *mesh.cartesian();
+    const FusedGrid fg = fused_grid();
+    const CartesianGrid& grid = *fg.grid;
+    const std::int64_t* const map = fg.cell_map;
     const detail::Context ctx{detail::MethodContext{opts, detail::TemplateBank{}, divided}, grid};
     const detail::SphereBounds bounds = sphere_bounds();
     const bool periodic = mesh.periodic() != 0;
+    const bool on_lattice = mesh.kind() == MeshKind::polyhedral;
     return acc.deposit_private(pl, pa.n, [&](auto&& thread_field) {
       const Validation v = reduce_particles(pa.n, [&](const tbb::blocked_range<std::int64_t>& r, Validation& a) {
         Scratch& s = scratch.local();
@@ -435,10 +455,12 @@ struct Engine::Impl {
         g.strides[0] = static_cast<std::int32_t>(grid.cells()[0]);
         g.strides[1] = static_cast<std::int32_t>(grid.cells()[0] * grid.cells()[1]);
         g.field = field;
+        g.cell_map = map;
+        if (on_lattice) s.lattice_particles += r.size();
         auto by_driver = [&](std::int64_t p) {
           s.deposits.clear();
           detail::direct_particle(ctx, s, particle(pa, p));
-          for (const Deposit& d : s.deposits) field[d.cell] += d.volume;
+          for (const Deposit& d : s.deposits) field[map ? map[d.cell] : d.cell] += d.volume;
         };
         std::int64_t left[kChunk];
         for (std::int64_t first = r.begin(); first < r.end(); first += kChunk) {
@@ -471,14 +493,14 @@ struct Engine::Impl {
   /// driver. The same cells as the general loop, with less per particle around them.
   /// method=auto takes the same pass with its own quick case (methods/hybrid.hpp).
   bool fuses_pmm(const ParticleArrays& pa, const detail::AccumulationPlan& pl) const {
-    return (opts.method == Method::pmm || opts.method == Method::automatic) && mesh.kind() == MeshKind::cartesian &&
+    return (opts.method == Method::pmm || opts.method == Method::automatic) && fused_grid().grid &&
            !pa.shape_ids && !mesh.periodic() &&
            opts.orientation != Orientation::given && opts.fast_path && pl.strategy == Accumulation::privatised &&
            !pl.uses_blocks() && !pl.touched_only;
   }
 
   void fused_pmm(const ParticleArrays& pa, const detail::AccumulationPlan& pl, const detail::TemplateBank& bank) {
-    const detail::Context ctx{detail::MethodContext{opts, bank, divided}, *mesh.cartesian()};
+    const detail::Context ctx{detail::MethodContext{opts, bank, divided}, *fused_grid().grid};
     const detail::PmmQuick quick(ctx);
     const bool hybrid = opts.method == Method::automatic;
     private_field_pass(pa, pl, [&](Scratch& s, auto&& add, const tbb::blocked_range<std::int64_t>& r) {
@@ -543,12 +565,12 @@ struct Engine::Impl {
   /// thread's field (methods/exact.hpp, exact_sphere_quick); any other goes through the
   /// driver. The same cells and volumes as the general loop.
   bool fuses_exact(const ParticleArrays& pa, const detail::AccumulationPlan& pl) const {
-    return opts.method == Method::exact && mesh.kind() == MeshKind::cartesian && !pa.shape_ids && !mesh.periodic() &&
+    return opts.method == Method::exact && fused_grid().grid && !pa.shape_ids && !mesh.periodic() &&
            pl.strategy == Accumulation::privatised && !pl.uses_blocks() && !pl.touched_only;
   }
 
   void fused_exact(const ParticleArrays& pa, const detail::AccumulationPlan& pl, const detail::TemplateBank& bank) {
-    const detail::Context ctx{detail::MethodContext{opts, bank, divided}, *mesh.cartesian()};
+    const detail::Context ctx{detail::MethodContext{opts, bank, divided}, *fused_grid().grid};
     private_field_pass(pa, pl, [&](Scratch& s, auto&& add, const tbb::blocked_range<std::int64_t>& r) {
       for (std::int64_t p = r.begin(); p < r.end(); ++p) {
         const double radius = pa.radius(p);
@@ -565,14 +587,22 @@ struct Engine::Impl {
 
   /// Phase 1 by a pass of the caller's own over the particles (blocks of 256 on the
   /// engine's threads), adding straight into each thread's private field:
-  /// body(scratch, add, block) with add(cell, volume). The frame of the fused passes.
+  /// body(scratch, add, block) with add(cell, volume), cell a cell of fused_grid(). The
+  /// frame of the fused passes.
   template <class Body>
   void private_field_pass(const ParticleArrays& pa, const detail::AccumulationPlan& pl, Body&& body) {
+    const std::int64_t* const map = fused_grid().cell_map;
+    const bool on_lattice = mesh.kind() == MeshKind::polyhedral;
     acc.deposit_private(pl, pa.n, [&](auto&& thread_field) {
       arena->execute([&] {
         tbb::parallel_for(tbb::blocked_range<std::int64_t>(0, pa.n, 256), [&](const tbb::blocked_range<std::int64_t>& r) {
           double* const field = thread_field();
-          body(scratch.local(), [field](std::int64_t cell, double v) { field[cell] += v; }, r);
+          Scratch& s = scratch.local();
+          if (on_lattice) s.lattice_particles += r.size();
+          if (map)
+            body(s, [field, map](std::int64_t cell, double v) { field[map[cell]] += v; }, r);
+          else
+            body(s, [field](std::int64_t cell, double v) { field[cell] += v; }, r);
         });
       });
       return 0;

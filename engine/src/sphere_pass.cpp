@@ -104,13 +104,23 @@ template <bool kPacked, bool kDeposit>
   std::int64_t k = 0;
   for (; k + 4 <= count; k += 4) step(std::true_type{}, k, 4);
   if (k < count) step(std::false_type{}, k, static_cast<int>(count - k));
-  if constexpr (kDeposit)
-    for (std::int64_t i = 0; i < count; ++i) {
-      if (cells[i] >= 0) [[likely]]
-        field[cells[i]] += volumes[i];
-      else
-        left[nleft++] = first + i;
+  if constexpr (kDeposit) {
+    if (const std::int64_t* map = g->cell_map; map) {
+      for (std::int64_t i = 0; i < count; ++i) {
+        if (cells[i] >= 0) [[likely]]
+          field[map[cells[i]]] += volumes[i];
+        else
+          left[nleft++] = first + i;
+      }
+    } else {
+      for (std::int64_t i = 0; i < count; ++i) {
+        if (cells[i] >= 0) [[likely]]
+          field[cells[i]] += volumes[i];
+        else
+          left[nleft++] = first + i;
+      }
     }
+  }
 
   if ((ok[0] & ok[1] & ok[2] & ok[3]) == 0) [[unlikely]] {
     recheck_spheres(pa, first, count, b, a);

@@ -20,6 +20,9 @@ struct CentreGrid {
   double origin[3], inv_spacing[3], cells[3];
   std::int32_t strides[2];
   double* field;  ///< the thread's field
+  /// Grid cell -> field index (a polyMesh's box lattice, BoxLattice::cell_map); null: the
+  /// grid's own index.
+  const std::int64_t* cell_map = nullptr;
 };
 inline constexpr std::int64_t kCentreGridCells = std::int64_t(1) << 31;
 
@@ -36,7 +39,7 @@ bool check_sphere_chunk(const ParticleArrays& pa, std::int64_t first, std::int64
                         Validation& a, PassBuild build = PassBuild::fastest);
 
 /// check_sphere_chunk, and each sphere whose centre lies in g adds its volume to its cell
-/// of g.field. Returns how many spheres it left to the caller, their indices in
+/// of g.field (renumbered by g.cell_map). Returns how many spheres it left to the caller, their indices in
 /// left[0 ..): centres outside the grid, in order. A chunk holding a bad particle returns
 /// 0 (the compute fails; what it added lies within the field, to be dropped).
 std::int64_t deposit_sphere_chunk(const ParticleArrays& pa, std::int64_t first, std::int64_t count,

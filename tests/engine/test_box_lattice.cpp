@@ -196,14 +196,11 @@ TEST(BoxLattice, OneCellSlightlyNotABoxIsNoLattice) {
 
 // Every method, every outside policy: the lattice path's field equals the general polyMesh
 // path's (lattice=0) to 1e-12 of a particle's volume per cell, on the uniform and graded
-// boxes and on the uniform box with its cells in a shuffled order.
+// boxes and on the uniform box with its cells in a shuffled order; with sorted sums, and
+// with private fields, where the uniform box takes the Cartesian grid's fused passes.
 TEST(BoxLattice, EveryMethodEqualsTheGeneralPolyMeshPath) {
   const Particles p = spheres_over_box(11, 1500);
   const double tol = 1e-12 * largest_volume(p);
-  struct Case {
-    const char* mesh;
-    std::vector<std::int64_t> perm;
-  };
   const vfe::PolyMesh uniform = vfe::PolyMesh::read(kData + "box_uniform_10x10x30");
   const vfe::PolyMesh graded = vfe::PolyMesh::read(kData + "box_graded");
   const MeshArrays arrays[] = {MeshArrays(uniform, identity(uniform.cell_count())),
@@ -214,23 +211,26 @@ TEST(BoxLattice, EveryMethodEqualsTheGeneralPolyMeshPath) {
     vfe::Engine e(arrays[m].view());
     ASSERT_GT(e.last_report_value("lattice_cells"), 0) << names[m];
     for (const char* method : kMethods)
-      for (const char* outside : kOutside) {
-        const std::string opts = std::string(method) + " " + outside + " deterministic=1";
-        const std::string what = std::string(names[m]) + ": " + opts;
-        const std::vector<double> general = run(e, p, opts + " lattice=0");
-        EXPECT_EQ(e.last_report_value("lattice_particles"), 0.0) << what;
-        const double outside_general = e.last_report_value("outside_particles");
-        const double dropped_general = e.last_report_value("dropped_volume");
-        const std::vector<double> lattice = run(e, p, opts + " lattice=1");
-        EXPECT_GT(e.last_report_value("lattice_particles"), 0.5 * double(p.radii.size())) << what;
-        EXPECT_EQ(e.last_report_value("outside_particles"), outside_general) << what;
-        EXPECT_NEAR(e.last_report_value("dropped_volume"), dropped_general, tol) << what;
-        // Volume is conserved: what the cells hold plus what was dropped.
-        EXPECT_NEAR(vfe::test::total(lattice) + e.last_report_value("dropped_volume"), p.volume(),
-                    1e-12 * p.volume())
-            << what;
-        expect_fields_near(lattice, general, tol, what);
-      }
+      for (const char* outside : kOutside)
+        for (const char* sums : {"deterministic=1 accumulation=auto", "deterministic=0 accumulation=private"}) {
+          const std::string opts = std::string(method) + " " + outside + " " + sums;
+          const std::string what = std::string(names[m]) + ": " + opts;
+          const std::vector<double> general = run(e, p, opts + " lattice=0");
+          EXPECT_EQ(e.last_report_value("lattice_particles"), 0.0) << what;
+          const double outside_general = e.last_report_value("outside_particles");
+          const double dropped_general = e.last_report_value("dropped_volume");
+          const std::vector<double> lattice = run(e, p, opts + " lattice=1");
+          EXPECT_GT(e.last_report_value("lattice_particles"), 0.5 * double(p.radii.size())) << what;
+          if (m != 1 && std::string(method) == "method=direct")  // the Cartesian grid's pass, renumbered
+            EXPECT_EQ(e.last_report_value("fused_pass"), std::string(sums).ends_with("private") ? 1.0 : 0.0) << what;
+          EXPECT_EQ(e.last_report_value("outside_particles"), outside_general) << what;
+          EXPECT_NEAR(e.last_report_value("dropped_volume"), dropped_general, tol) << what;
+          // Volume is conserved: what the cells hold plus what was dropped.
+          EXPECT_NEAR(vfe::test::total(lattice) + e.last_report_value("dropped_volume"), p.volume(),
+                      1e-12 * p.volume())
+              << what;
+          expect_fields_near(lattice, general, tol, what);
+        }
   }
 }
 
