@@ -4,6 +4,9 @@
 // policy must hold (docs/polymesh.md): the grid's driver serves as is where its outside
 // rule is the polyMesh's, serves with its outside volume handed to the polyMesh's rule
 // where that rule takes the volume as a whole, and the polyMesh's driver serves otherwise.
+// On a Cartesian lattice whose rule is the grid's (LatticeBoundary::grid), direct, pmm and
+// exact skip this wrapper: the engine runs the grid's fused passes over all particles and
+// renumbers each deposit (fused_grid in engine.cpp); this file serves the rest.
 #pragma once
 
 #include "box_lattice.hpp"
