@@ -20,6 +20,9 @@ constexpr double kTwoPi = 2 * std::numbers::pi;
 
 double beta(double x, double y) { return std::exp(std::lgamma(x) + std::lgamma(y) - std::lgamma(x + y)); }
 
+/// Most slices (integrand evaluations) a clump's volume integration may take.
+constexpr std::int64_t kClumpIntegrandBudget = std::int64_t(1) << 20;
+
 /// Second moment of the sampled body about `centre`, scaled to `volume`.
 Eigen::Matrix3d sampled_second_moment(const SampledBody& s, const Eigen::Vector3d& centre, double volume) {
   Eigen::Matrix3d m = Eigen::Matrix3d::Zero();
@@ -27,21 +30,29 @@ Eigen::Matrix3d sampled_second_moment(const SampledBody& s, const Eigen::Vector3
   return s.points.empty() ? m : m * (volume / double(s.points.size()));
 }
 
-/// Adaptive Simpson on a vector-valued integrand, to an absolute tolerance.
+/// Adaptive Simpson on a vector-valued integrand, to an absolute tolerance, within a
+/// budget of integrand evaluations shared by every call on one shape (the depth limit
+/// alone would allow 2^40): an integrand too noisy to meet the tolerance is refused, not
+/// integrated for hours.
 using Vec4 = Eigen::Vector4d;
 Vec4 simpson(const std::function<Vec4(double)>& f, double a, double b, const Vec4& fa, const Vec4& fm, const Vec4& fb,
-             const Vec4& whole, double tol, int depth) {
+             const Vec4& whole, double tol, int depth, std::int64_t& budget) {
+  if ((budget -= 2) < 0)
+    throw std::invalid_argument("the clump's volume integration did not converge within " +
+                                std::to_string(kClumpIntegrandBudget) +
+                                " slices; its spheres lie too far apart or differ too much in size");
   const double m = 0.5 * (a + b), lm = 0.5 * (a + m), rm = 0.5 * (m + b);
   const Vec4 flm = f(lm), frm = f(rm);
   const Vec4 left = (m - a) / 6 * (fa + 4 * flm + fm), right = (b - m) / 6 * (fm + 4 * frm + fb);
   const Vec4 delta = left + right - whole;
   if (depth <= 0 || delta.cwiseAbs().maxCoeff() <= 15 * tol) return left + right + delta / 15;
-  return simpson(f, a, m, fa, flm, fm, left, tol / 2, depth - 1) + simpson(f, m, b, fm, frm, fb, right, tol / 2, depth - 1);
+  return simpson(f, a, m, fa, flm, fm, left, tol / 2, depth - 1, budget) +
+         simpson(f, m, b, fm, frm, fb, right, tol / 2, depth - 1, budget);
 }
 
-Vec4 integrate(const std::function<Vec4(double)>& f, double a, double b, double tol) {
+Vec4 integrate(const std::function<Vec4(double)>& f, double a, double b, double tol, std::int64_t& budget) {
   const Vec4 fa = f(a), fb = f(b), fm = f(0.5 * (a + b));
-  return simpson(f, a, b, fa, fm, fb, (b - a) / 6 * (fa + 4 * fm + fb), tol, 40);
+  return simpson(f, a, b, fa, fm, fb, (b - a) / 6 * (fa + 4 * fm + fb), tol, 40, budget);
 }
 
 /// Bounding box of the vertices the triangles use (a stray unused vertex would otherwise
@@ -201,8 +212,25 @@ MassProperties mesh_mass_properties(const TriangleMesh& mesh) {
 
 DiskUnion disk_union(const std::vector<Eigen::Vector3d>& disks) {
   DiskUnion u;
+  // Each group of overlapping disks is integrated about its first disk's centre: Green's
+  // terms about a far origin are large and cancel, and their round-off (a unit disk 1e90
+  // from the origin has none of its area left) would keep the adaptive rule from ever
+  // meeting its tolerance. A group's boundary is closed, so its area needs no common origin
+  // with the other groups.
+  std::vector<std::size_t> group(disks.size());
+  for (std::size_t i = 0; i < disks.size(); ++i) group[i] = i;
+  auto root = [&](std::size_t i) {
+    while (group[i] != i) i = group[i] = group[group[i]];
+    return i;
+  };
+  for (std::size_t i = 0; i < disks.size(); ++i)
+    for (std::size_t j = i + 1; j < disks.size(); ++j)
+      if (std::hypot(disks[j][0] - disks[i][0], disks[j][1] - disks[i][1]) < disks[i][2] + disks[j][2])
+        group[root(j)] = root(i);
   std::vector<std::pair<double, double>> covered;
   for (std::size_t i = 0; i < disks.size(); ++i) {
+    const std::size_t origin = root(i);
+    const double ox = disks[origin][0], oy = disks[origin][1];
     const double cx = disks[i][0], cy = disks[i][1], r = disks[i][2];
     if (!(r > 0)) continue;
     covered.clear();
@@ -233,17 +261,19 @@ DiskUnion disk_union(const std::vector<Eigen::Vector3d>& disks) {
     merge_intervals(covered);
     // Exposed arcs: Green's theorem, area = 1/2 closed integral of (x dy - y dx),
     // integral of x dA = closed integral of x^2/2 dy, integral of y dA = -closed integral of y^2/2 dx.
+    const double lx = cx - ox, ly = cy - oy;  // the centre about the group's origin
+    DiskUnion local;
     auto arc = [&](double t0, double t1) {
       const double s0 = std::sin(t0), s1 = std::sin(t1), c0 = std::cos(t0), c1 = std::cos(t1);
-      u.area += 0.5 * (r * cx * (s1 - s0) - r * cy * (c1 - c0) + r * r * (t1 - t0));
+      local.area += 0.5 * (r * lx * (s1 - s0) - r * ly * (c1 - c0) + r * r * (t1 - t0));
       const double icos = s1 - s0;
       const double icos2 = 0.5 * (t1 - t0) + 0.25 * (std::sin(2 * t1) - std::sin(2 * t0));
       const double icos3 = (s1 - s1 * s1 * s1 / 3) - (s0 - s0 * s0 * s0 / 3);
-      u.moment_x += 0.5 * r * (cx * cx * icos + 2 * cx * r * icos2 + r * r * icos3);
+      local.moment_x += 0.5 * r * (lx * lx * icos + 2 * lx * r * icos2 + r * r * icos3);
       const double isin = -(c1 - c0);
       const double isin2 = 0.5 * (t1 - t0) - 0.25 * (std::sin(2 * t1) - std::sin(2 * t0));
       const double isin3 = (-c1 + c1 * c1 * c1 / 3) - (-c0 + c0 * c0 * c0 / 3);
-      u.moment_y += 0.5 * r * (cy * cy * isin + 2 * cy * r * isin2 + r * r * isin3);
+      local.moment_y += 0.5 * r * (ly * ly * isin + 2 * ly * r * isin2 + r * r * isin3);
     };
     double t = 0;
     for (const auto& [lo, hi] : covered) {
@@ -251,6 +281,9 @@ DiskUnion disk_union(const std::vector<Eigen::Vector3d>& disks) {
       t = std::max(t, hi);
     }
     if (t < kTwoPi) arc(t, kTwoPi);
+    u.area += local.area;
+    u.moment_x += local.moment_x + ox * local.area;
+    u.moment_y += local.moment_y + oy * local.area;
   }
   return u;
 }
@@ -334,7 +367,8 @@ Shape Shape::clump(std::vector<Eigen::Vector4d> spheres) {
   };
   const double tol = 1e-13 * scale * scale * scale;
   Vec4 total = Vec4::Zero();
-  for (std::size_t i = 0; i + 1 < breaks.size(); ++i) total += integrate(slice, breaks[i], breaks[i + 1], tol);
+  std::int64_t budget = kClumpIntegrandBudget;
+  for (std::size_t i = 0; i + 1 < breaks.size(); ++i) total += integrate(slice, breaks[i], breaks[i + 1], tol, budget);
   s.props_.volume = total[0];
   s.props_.centroid = c0 + Eigen::Vector3d(total[1], total[2], total[3]) * (spread / total[0]);
   check_sampling_cost(s, kMaxShapeSamples);

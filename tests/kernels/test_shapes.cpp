@@ -170,6 +170,24 @@ TEST(DiskUnion, AreasOfDisjointNestedAndOverlappingDisks) {
   EXPECT_NEAR(u.area, 2 * kPi - lens, 1e-14);
   EXPECT_NEAR(u.moment_x / u.area, 0.5, 1e-14);
   EXPECT_NEAR(u.moment_y, 0.0, 1e-14);
+  // Far from the origin: each group of overlapping disks is integrated about its own centre,
+  // so a unit disk 1e90 away keeps its area (about the origin none of it was left).
+  EXPECT_NEAR(disk_union({{0, 0, 1}, {1e90, 0, 1}}).area, 2 * kPi, 1e-14);
+  const DiskUnion far = disk_union({{1e12, -3e11, 1}, {1e12 + 1, -3e11, 1}});
+  EXPECT_NEAR(far.area, 2 * kPi - lens, 1e-13);
+  EXPECT_NEAR(far.moment_x / far.area, 1e12 + 0.5, 1e-3);
+  EXPECT_NEAR(far.moment_y / far.area, -3e11, 1e-3);
+}
+
+// Regression (found by fuzzing): a clump of spheres far apart, whose slices' areas lost
+// all their digits to Green's terms about a far origin, drove the adaptive integration to
+// its full depth (hours). Now a clump within the limits gets its exact volume, and one
+// beyond them is refused at once.
+TEST(ClumpShape, SpheresFarApartKeepTheExactVolume) {
+  const Shape spread = Shape::clump({{0, 0, 0, 1}, {1, 0, 0, 1}, {1e6, 0, 0, 1}});
+  const double expect = 3 * 4.0 / 3.0 * kPi - lens_volume(1, 1, 1);
+  EXPECT_NEAR(spread.volume(), expect, 1e-10 * expect);
+  EXPECT_THROW((void)Shape::clump({{0, 0, 0, 1}, {1e90, 0, 0, 1}}), std::invalid_argument);
 }
 
 TEST(ShapeTemplate, ClumpAndSuperquadricTemplatesAreCentredEqualVolumeInside) {
