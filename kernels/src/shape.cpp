@@ -35,12 +35,15 @@ Eigen::Matrix3d sampled_second_moment(const SampledBody& s, const Eigen::Vector3
 /// alone would allow 2^40): an integrand too noisy to meet the tolerance is refused, not
 /// integrated for hours.
 using Vec4 = Eigen::Vector4d;
-Vec4 simpson(const std::function<Vec4(double)>& f, double a, double b, const Vec4& fa, const Vec4& fm, const Vec4& fb,
-             const Vec4& whole, double tol, int depth, std::int64_t& budget) {
-  if ((budget -= 2) < 0)
+void spend_slices(std::int64_t& budget, int evaluations) {
+  if ((budget -= evaluations) < 0)
     throw std::invalid_argument("the clump's volume integration did not converge within " +
                                 std::to_string(kClumpIntegrandBudget) +
-                                " slices; its spheres lie too far apart or differ too much in size");
+                                " slices; its spheres may lie too far apart for their sizes");
+}
+Vec4 simpson(const std::function<Vec4(double)>& f, double a, double b, const Vec4& fa, const Vec4& fm, const Vec4& fb,
+             const Vec4& whole, double tol, int depth, std::int64_t& budget) {
+  spend_slices(budget, 2);
   const double m = 0.5 * (a + b), lm = 0.5 * (a + m), rm = 0.5 * (m + b);
   const Vec4 flm = f(lm), frm = f(rm);
   const Vec4 left = (m - a) / 6 * (fa + 4 * flm + fm), right = (b - m) / 6 * (fm + 4 * frm + fb);
@@ -51,6 +54,7 @@ Vec4 simpson(const std::function<Vec4(double)>& f, double a, double b, const Vec
 }
 
 Vec4 integrate(const std::function<Vec4(double)>& f, double a, double b, double tol, std::int64_t& budget) {
+  spend_slices(budget, 3);
   const Vec4 fa = f(a), fb = f(b), fm = f(0.5 * (a + b));
   return simpson(f, a, b, fa, fm, fb, (b - a) / 6 * (fa + 4 * fm + fb), tol, 40, budget);
 }
@@ -339,38 +343,40 @@ Shape Shape::clump(std::vector<Eigen::Vector4d> spheres) {
   s.spheres_ = std::move(spheres);
   // Exact slice areas and moments (union of disks) integrated over z between the
   // spheres' poles and centres, where the slice topology changes.
-  // Integrated about the bounding box's centre c0, with the moments divided by `spread`
-  // (1 unless the spheres lie more than 1000 radii apart): the moments' round-off then
-  // stays within the tolerance, which otherwise drove the adaptive rule to its full depth
-  // (minutes for two spheres 1e15 apart).
+  // Integrated in units of the largest radius about the bounding box's centre c0, with the
+  // moments divided by `spread` (1 unless the spheres lie more than 1000 radii apart): the
+  // moments' round-off then stays within the tolerance whatever the clump's size and unit,
+  // which otherwise drove the adaptive rule to its full depth (minutes for two spheres 1e15
+  // apart, or for spheres of radius 1e4: their moments carry one more length than the
+  // volume the tolerance was scaled to).
   const Eigen::Vector3d c0 = s.bounds_.center();
   double scale = 0;
   for (const auto& q : s.spheres_) scale = std::max(scale, q[3]);
   const double spread = std::max(1.0, s.bounds_.sizes().maxCoeff() / (1000 * scale));
+  std::vector<Eigen::Vector4d> unit;  // x y z r about c0, in units of scale
+  unit.reserve(s.spheres_.size());
+  for (const auto& q : s.spheres_)
+    unit.emplace_back((q[0] - c0[0]) / scale, (q[1] - c0[1]) / scale, (q[2] - c0[2]) / scale, q[3] / scale);
   std::vector<double> breaks;
-  for (const auto& q : s.spheres_) {
-    const double z = q[2] - c0[2];
-    breaks.insert(breaks.end(), {z - q[3], z, z + q[3]});
-  }
+  for (const auto& q : unit) breaks.insert(breaks.end(), {q[2] - q[3], q[2], q[2] + q[3]});
   std::sort(breaks.begin(), breaks.end());
   breaks.erase(std::unique(breaks.begin(), breaks.end()), breaks.end());
   std::vector<Eigen::Vector3d> disks;
   auto slice = [&](double z) {
     disks.clear();
-    for (const auto& q : s.spheres_) {
-      const double dz = z - (q[2] - c0[2]);
+    for (const auto& q : unit) {
+      const double dz = z - q[2];
       const double h2 = q[3] * q[3] - dz * dz;
-      if (h2 > 0) disks.emplace_back(q[0] - c0[0], q[1] - c0[1], std::sqrt(h2));
+      if (h2 > 0) disks.emplace_back(q[0], q[1], std::sqrt(h2));
     }
     const DiskUnion u = disk_union(disks);
     return Vec4(u.area, u.moment_x / spread, u.moment_y / spread, z * u.area / spread);
   };
-  const double tol = 1e-13 * scale * scale * scale;
   Vec4 total = Vec4::Zero();
   std::int64_t budget = kClumpIntegrandBudget;
-  for (std::size_t i = 0; i + 1 < breaks.size(); ++i) total += integrate(slice, breaks[i], breaks[i + 1], tol, budget);
-  s.props_.volume = total[0];
-  s.props_.centroid = c0 + Eigen::Vector3d(total[1], total[2], total[3]) * (spread / total[0]);
+  for (std::size_t i = 0; i + 1 < breaks.size(); ++i) total += integrate(slice, breaks[i], breaks[i + 1], 1e-13, budget);
+  s.props_.volume = total[0] * scale * scale * scale;
+  s.props_.centroid = c0 + Eigen::Vector3d(total[1], total[2], total[3]) * (spread * scale / total[0]);
   check_sampling_cost(s, kMaxShapeSamples);
   s.props_.second_moment = sampled_second_moment(sample_shape(s, 400000), s.props_.centroid, s.props_.volume);
   return s;

@@ -190,6 +190,24 @@ TEST(ClumpShape, SpheresFarApartKeepTheExactVolume) {
   EXPECT_THROW((void)Shape::clump({{0, 0, 0, 1}, {1e90, 0, 0, 1}}), std::invalid_argument);
 }
 
+// Regression: the volume integration's tolerance was scaled to the volume while the moments
+// carry one more length, so a clump of spheres of radius 1e4 (micrometres, say) never met
+// it (hours before the slice budget, refused after it). It now integrates in units of the
+// largest radius: the same exact volume and centroid, scaled, at every size.
+TEST(ClumpShape, VolumeAndCentroidAreExactAtEverySize) {
+  const double d = std::sqrt(0.5 * 0.5 + 0.2 * 0.2 + 0.3 * 0.3);
+  const double expect = 4.0 / 3.0 * kPi * (1 + 0.8 * 0.8 * 0.8) - lens_volume(1, 0.8, d);
+  const Shape unit = Shape::clump({{0, 0, 0, 1}, {0.5, 0.2, 0.3, 0.8}});
+  for (const double r : {1e-6, 1.0, 1e4, 1e30}) {
+    const Shape s = Shape::clump({{0, 0, 0, r}, {0.5 * r, 0.2 * r, 0.3 * r, 0.8 * r}});
+    EXPECT_NEAR(s.volume() / (r * r * r), expect, 1e-10 * expect) << r;
+    EXPECT_LT((s.centroid() / r - unit.centroid()).norm(), 1e-12) << r;
+  }
+  // A tiny sphere inside a huge one counts once.
+  const Shape nested = Shape::clump({{0, 0, 0, 1e30}, {0, 0, 0, 1e-30}});
+  EXPECT_NEAR(nested.volume() / 1e90, 4.0 / 3.0 * kPi, 1e-12);
+}
+
 TEST(ShapeTemplate, ClumpAndSuperquadricTemplatesAreCentredEqualVolumeInside) {
   for (const Shape& s : {Shape::clump({{0, 0, 0, 0.6}, {0.5, 0.1, 0, 0.5}}), Shape::superquadric(1, 0.6, 0.4, 0.4, 0.8)}) {
     const ParticleTemplate t = make_shape_template(s, 50);
