@@ -105,21 +105,19 @@ template <bool kPacked, bool kDeposit>
   for (; k + 4 <= count; k += 4) step(std::true_type{}, k, 4);
   if (k < count) step(std::false_type{}, k, static_cast<int>(count - k));
   if constexpr (kDeposit) {
-    if (const std::int64_t* map = g->cell_map; map) {
+    // One loop per numbering, so the grid's own keeps its plain indexed add.
+    auto deposit = [&](auto field_index) {
       for (std::int64_t i = 0; i < count; ++i) {
         if (cells[i] >= 0) [[likely]]
-          field[map[cells[i]]] += volumes[i];
+          field[field_index(cells[i])] += volumes[i];
         else
           left[nleft++] = first + i;
       }
-    } else {
-      for (std::int64_t i = 0; i < count; ++i) {
-        if (cells[i] >= 0) [[likely]]
-          field[cells[i]] += volumes[i];
-        else
-          left[nleft++] = first + i;
-      }
-    }
+    };
+    if (const std::int64_t* map = g->cell_map; map)
+      deposit([map](auto cell) { return map[cell]; });
+    else
+      deposit([](auto cell) { return cell; });
   }
 
   if ((ok[0] & ok[1] & ok[2] & ok[3]) == 0) [[unlikely]] {
