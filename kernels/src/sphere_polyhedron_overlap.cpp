@@ -31,6 +31,18 @@
 // Oosterom-Strackee's formula for triangles. Every term is bounded by about R^3 and
 // computed without cancellation, so the result has an absolute error of a few ulps of the
 // ball volume per edge.
+//
+// With the centre's winding number w known (point location gives it), the solid angles of
+// all faces add up to 4 pi w, so
+//
+//     |B n P| = w |B| + sum over faces F reaching into the ball of
+//               sign(h_F) (h/3 |F n disc| - R^3/3 Omega(F n disc)):
+//
+// faces beyond the sphere cost nothing, and a right triangle needs no Omega of its own. A
+// sector of the disc then adds alpha times -(R - h)^2 (2R + h) / 6 (the cap beyond the
+// plane, per radian), and an edge whose line the disc misses needs one atan2 for the angle
+// it spans. w jumps where a face plane passes through the centre, so a centre within
+// rounding of a reaching face's plane takes the general formula.
 #include "vfe/kernels/sphere_polyhedron_overlap.hpp"
 
 #include <Eigen/Geometry>
@@ -38,10 +50,16 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 namespace vfe::kernels {
 namespace {
+
+/// With the winding number known, a centre nearer than kEdgeMargin times an edge's length
+/// (from the centre's foot) to the line of an edge the disc reaches takes the general
+/// formula: the result's error is about 1e-17 of the ball over that distance ratio.
+constexpr double kEdgeMargin2 = 1e-2 * 1e-2;
 
 /// What one face plane's edges share.
 struct FacePlane {
@@ -50,6 +68,7 @@ struct FacePlane {
   double r3;   ///< r^3
   double a2;   ///< squared radius of the disc the ball cuts from the plane
   double cap;  ///< 1 - h / r: solid angle per radian of a sector of that disc
+  double cap_volume;  ///< (r - h)^2 (2 r + h) / 6: volume per radian of the cap beyond the plane
 };
 
 /// |B n pyramid(c, right triangle (p, q, q + s t))| with d = |q - p| > 0 and
@@ -75,6 +94,25 @@ double right_triangle_cone(const FacePlane& pl, double d, double rho, double s) 
   return s < 0 ? -v : v;
 }
 
+/// right_triangle_cone less R^3/3 times the right triangle's solid angle, for a line the
+/// disc reaches (a > d); odd in s.
+double right_triangle_cone_in_disc(const FacePlane& pl, double d, double rho, double s) {
+  const double sa = std::fabs(s);
+  if (sa == 0) return 0;
+  const double h = pl.h;
+  double v;
+  if (rho * rho + sa * sa <= pl.r * pl.r) {
+    const double ell = std::sqrt(rho * rho + sa * sa);
+    v = h * d * sa / 6 - pl.r3 / 3 * 2 * std::atan(d * sa / ((rho + h) * (ell + rho)));
+  } else {
+    const double s_in = std::sqrt(pl.a2 - d * d);
+    const double omega_in = 2 * std::atan(d * s_in / ((rho + h) * (pl.r + rho)));
+    const double beyond = std::atan2(d * (sa - s_in), d * d + sa * s_in);
+    v = h * d * s_in / 6 - pl.r3 / 3 * omega_in - beyond * pl.cap_volume;
+  }
+  return s < 0 ? -v : v;
+}
+
 /// Signed solid angle of the triangle (a, b, c) (positions relative to the centre) seen
 /// from the centre, positive when its right-hand normal points away from it (Van
 /// Oosterom-Strackee; the triple product from the edges, for accuracy).
@@ -94,24 +132,36 @@ bool segment_in_ball(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double 
 
 }  // namespace
 
-double sphere_polyhedron_overlap(const Eigen::Vector3d& centre, double radius,
-                                 std::span<const Eigen::Vector3d> vertices,
-                                 std::span<const std::int32_t> face_offsets,
-                                 std::span<const std::int32_t> face_vertices) {
-  if (!(radius > 0) || face_offsets.size() < 2 || vertices.empty()) return 0;
+namespace {
+
+/// The overlap. winding: the centre's winding number about the surface, or -1 if unknown;
+/// when known, faces that do not reach into the open ball may be left out, and a centre
+/// within rounding of a reaching face's plane gives NaN.
+double overlap(const Eigen::Vector3d& centre, double radius, std::span<const Eigen::Vector3d> vertices,
+               std::span<const std::int32_t> face_offsets, std::span<const std::int32_t> face_vertices,
+               int winding) {
+  const bool known = winding >= 0;
+  if (!(radius > 0)) return 0;
   const double r = radius, r2 = r * r, r3 = r * r * r;
   const double ball = 4.0 / 3.0 * std::numbers::pi * r3;
+  if (face_offsets.size() < 2 || vertices.empty()) return known ? winding * ball : 0;
 
   // The polyhedron lies in its vertices' hull: no overlap when their box misses the ball,
-  // the whole polyhedron when they are all in the ball.
+  // the whole polyhedron when they are all in the ball. (With the winding number known the
+  // faces given may be a part of the surface: then the box only tells that none of them
+  // reaches into the ball.)
   Eigen::Vector3d lo = vertices[0], hi = vertices[0];
-  bool contained = true;
+  bool contained = !known;
   for (const Eigen::Vector3d& v : vertices) {
     lo = lo.cwiseMin(v);
     hi = hi.cwiseMax(v);
     contained = contained && (v - centre).squaredNorm() <= r2;
   }
-  if ((centre.cwiseMax(lo).cwiseMin(hi) - centre).squaredNorm() >= r2) return 0;
+  if ((centre.cwiseMax(lo).cwiseMin(hi) - centre).squaredNorm() >= r2) return known ? winding * ball : 0;
+  // A bound on the rounding of a face plane's height above the centre (relative
+  // coordinates, normal, mean): about 1e4 ulps of the largest coordinate.
+  const double height_rounding =
+      1e-12 * std::max({centre.cwiseAbs().maxCoeff(), lo.cwiseAbs().maxCoeff(), hi.cwiseAbs().maxCoeff()});
 
   const auto vertex = [&](std::int32_t k) -> Eigen::Vector3d {
     return vertices[static_cast<std::size_t>(face_vertices[static_cast<std::size_t>(k)])] - centre;
@@ -156,9 +206,11 @@ double sphere_polyhedron_overlap(const Eigen::Vector3d& centre, double radius,
     }
     const double norm = area2.norm();
     if (!(norm > 0)) continue;
-    const Eigen::Vector3d normal = area2 / norm;
-    const double height = normal.dot(sum) / double(end - begin);
-    polyhedron += height * norm / 6;
+    // moment = height * norm * count: no division until the face is known to reach the
+    // ball (most faces of a cut cell lie beyond it).
+    const double count = double(end - begin);
+    const double moment = area2.dot(sum);
+    if (!known) polyhedron += moment / (6 * count);
     if (contained) continue;
 
     // A face that does not reach into the open ball is seen from the centre beyond the
@@ -168,19 +220,23 @@ double sphere_polyhedron_overlap(const Eigen::Vector3d& centre, double radius,
       for (std::int32_t k = begin + 1; k + 1 < end; ++k) omega += triangle_solid_angle(u0, vertex(k), vertex(k + 1));
       return omega;
     };
-    const double h = std::fabs(height);
-    if (h >= r) {
-      volume += r3 / 3 * face_solid_angle();
+    if (std::fabs(moment) >= r * norm * count) {  // the plane is beyond the sphere
+      if (!known) volume += r3 / 3 * face_solid_angle();
       continue;
     }
+    const Eigen::Vector3d normal = area2 / norm;
+    const double height = moment / (norm * count);
+    const double h = std::fabs(height);
     const Eigen::Vector3d foot = height * normal;
     bool meets = foot_inside(begin, end, foot, normal);
     for (std::int32_t k = begin; k < end && !meets; ++k)
       meets = segment_in_ball(vertex(k), vertex(k + 1 == end ? begin : k + 1), r2);
     if (!meets) {
-      if (height != 0) volume += r3 / 3 * face_solid_angle();
+      if (!known && height != 0) volume += r3 / 3 * face_solid_angle();
       continue;
     }
+    if (known && h <= height_rounding)  // which side of this plane the centre is on is unsure
+      return std::numeric_limits<double>::quiet_NaN();
     boundary_in_ball = true;
     if (height == 0) continue;  // a face through the centre adds no volume
 
@@ -190,6 +246,7 @@ double sphere_polyhedron_overlap(const Eigen::Vector3d& centre, double radius,
     pl.r3 = r3;
     pl.a2 = (r - h) * (r + h);
     pl.cap = (r - h) / r;
+    pl.cap_volume = (r - h) * (r - h) * (2 * r + h) / 6;
     double face_volume = 0;
     for (std::int32_t k = begin; k < end; ++k) {
       const Eigen::Vector3d a = vertex(k) - foot;
@@ -202,15 +259,44 @@ double sphere_polyhedron_overlap(const Eigen::Vector3d& centre, double radius,
       if (d == 0) continue;  // p on the edge's line: a flat triangle
       const double sa = a.dot(t), sb = sa + length;
       const double rho = std::sqrt(h * h + d * d);
-      const double part = right_triangle_cone(pl, d, rho, sb) - right_triangle_cone(pl, d, rho, sa);
+      double part;
+      if (!known) {
+        part = right_triangle_cone(pl, d, rho, sb) - right_triangle_cone(pl, d, rho, sa);
+      } else if (pl.a2 <= d * d) {  // sectors only: the angle the edge spans, in one atan2
+        part = -std::atan2(d * (sb - sa), d * d + sa * sb) * pl.cap_volume;
+      } else {
+        // The disc reaches the edge's line: its solid angle changes by O(1) within rho of
+        // the line, so a centre near an edge (rho small against the edge's reach) would
+        // take the rounding of d and h times length / rho.
+        if (rho * rho < kEdgeMargin2 * (std::max(sa * sa, sb * sb) + d * d))
+          return std::numeric_limits<double>::quiet_NaN();
+        part = right_triangle_cone_in_disc(pl, d, rho, sb) - right_triangle_cone_in_disc(pl, d, rho, sa);
+      }
       face_volume += d_signed > 0 ? part : -part;
     }
     volume += height > 0 ? face_volume : -face_volume;
   }
+  if (known) return std::clamp(volume + winding * ball, 0.0, ball);
   if (contained) return std::max(polyhedron, 0.0);
   // No face in the open ball: the ball lies inside or outside, as the centre does.
   if (!boundary_in_ball) return volume > 0.5 * ball ? ball : 0.0;
   return std::clamp(volume, 0.0, std::max(0.0, std::min(ball, polyhedron)));
+}
+
+}  // namespace
+
+double sphere_polyhedron_overlap(const Eigen::Vector3d& centre, double radius,
+                                 std::span<const Eigen::Vector3d> vertices,
+                                 std::span<const std::int32_t> face_offsets,
+                                 std::span<const std::int32_t> face_vertices) {
+  return overlap(centre, radius, vertices, face_offsets, face_vertices, -1);
+}
+
+double sphere_polyhedron_overlap_located(const Eigen::Vector3d& centre, double radius, bool centre_inside,
+                                         std::span<const Eigen::Vector3d> vertices,
+                                         std::span<const std::int32_t> face_offsets,
+                                         std::span<const std::int32_t> face_vertices) {
+  return overlap(centre, radius, vertices, face_offsets, face_vertices, centre_inside ? 1 : 0);
 }
 
 double sphere_tetrahedron_overlap(const Eigen::Vector3d& centre, double radius, const Eigen::Vector3d& a,

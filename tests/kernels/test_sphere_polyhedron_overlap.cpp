@@ -502,3 +502,176 @@ TEST(SpherePolyhedronOverlap, RandomInputsStayFiniteAndBounded) {
 }
 
 }  // namespace
+
+// ---------------------------------------------------------------------------------------
+// The located overlap: the centre's side known, only the faces that reach into the ball
+
+namespace located {
+
+using vfe::kernels::sphere_polyhedron_overlap_located;
+
+/// True when c lies strictly inside every face plane of the convex polyhedron p (planar faces).
+bool inside_convex(const Polyhedron& p, const Vector3d& c) {
+  for (std::size_t f = 0; f + 1 < p.offsets.size(); ++f) {
+    const Vector3d& a = p.vertices[p.indices[p.offsets[f]]];
+    const Vector3d n = (p.vertices[p.indices[p.offsets[f] + 1]] - a).cross(p.vertices[p.indices[p.offsets[f] + 2]] - a);
+    if (n.dot(c - a) >= 0) return false;
+  }
+  return true;
+}
+
+/// p's faces whose plane comes within `reach` of c (the rest cannot reach into the ball), with
+/// only the vertices they use.
+Polyhedron faces_near(const Polyhedron& p, const Vector3d& c, double reach) {
+  Polyhedron near;
+  for (std::size_t f = 0; f + 1 < p.offsets.size(); ++f) {
+    const std::int32_t begin = p.offsets[f], end = p.offsets[f + 1];
+    Vector3d area = Vector3d::Zero();
+    for (std::int32_t k = begin; k < end; ++k)
+      area += p.vertices[p.indices[k]].cross(p.vertices[p.indices[k + 1 == end ? begin : k + 1]]);
+    const Vector3d n = area.normalized();
+    if (std::fabs(n.dot(c - p.vertices[p.indices[begin]])) > reach) continue;
+    for (std::int32_t k = begin; k < end; ++k) {
+      near.vertices.push_back(p.vertices[p.indices[k]]);
+      near.indices.push_back(static_cast<std::int32_t>(near.vertices.size() - 1));
+    }
+    near.offsets.push_back(static_cast<std::int32_t>(near.indices.size()));
+  }
+  return near;
+}
+
+double overlap_located(const Polyhedron& p, const Vector3d& c, double r, bool inside) {
+  return sphere_polyhedron_overlap_located(c, r, inside, p.vertices, p.offsets, p.indices);
+}
+
+/// The located overlap from `part` of `whole`'s faces, or (counted in `declined`) the
+/// general one of `whole` where the located one declines, as the engine does.
+double located_or_general(const Polyhedron& whole, const Polyhedron& part, const Vector3d& c, double r, bool inside,
+                          int& declined) {
+  const double v = overlap_located(part, c, r, inside);
+  if (!std::isnan(v)) return v;
+  ++declined;
+  return whole.overlap(c, r);
+}
+
+}  // namespace located
+
+TEST(SpherePolyhedronOverlapLocated, SkewHexahedraMatchNumericalIntegrationFromTheNearFacesOnly) {
+  using namespace located;
+  std::mt19937_64 rng(23);
+  std::uniform_real_distribution<double> u(0, 1), rad(0.2, 0.9);
+  int inside_count = 0, partial = 0;
+  for (int trial = 0; trial < 24; ++trial) {
+    const double x0 = 0.4 * u(rng), x1 = 0.6 + 0.6 * u(rng), y0 = 0.4 * u(rng), y1 = 0.6 + 0.6 * u(rng);
+    const Matrix3d m = random_map(rng);
+    const Polyhedron hex = hexahedron(frustum(x0, x1, y0, y1, 0, 1, m, Vector3d::Zero()));
+    const double r = rad(rng);
+    const Vector3d c = m * Vector3d(1.2 * u(rng) - 0.1, 1.2 * u(rng) - 0.1, 1.2 * u(rng) - 0.1);
+    const bool inside = inside_convex(hex, c);
+    const Polyhedron near = faces_near(hex, c, r);
+    inside_count += inside;
+    partial += near.offsets.size() < hex.offsets.size();
+    const double reference = integrated_overlap(hex, c, r);
+    int declined = 0;
+    ASSERT_NEAR(located_or_general(hex, hex, c, r, inside, declined), reference, 1e-12 * ball_volume(r)) << trial;
+    ASSERT_NEAR(located_or_general(hex, near, c, r, inside, declined), reference, 1e-12 * ball_volume(r)) << trial;
+    ASSERT_EQ(declined, 0) << "trial " << trial;  // random centres are far from the edges
+  }
+  // Both sides of the surface, and faces left out, were exercised.
+  EXPECT_GT(inside_count, 4);
+  EXPECT_LT(inside_count, 20);
+  EXPECT_GT(partial, 4);
+}
+
+TEST(SpherePolyhedronOverlapLocated, EqualsTheGeneralOverlapOnBoxesAndNonConvexCells) {
+  using namespace located;
+  std::mt19937_64 rng(29);
+  std::uniform_real_distribution<double> pos(-0.5, 2.5), rad(0.05, 1.5), unit(0, 1);
+  Polyhedron l;  // the L-shaped prism of NonConvexAndWarpedFanCellsAddUp: [0,2]x[0,1] and [0,1]x[1,2], z in [0,1]
+  l.vertices = {{0, 0, 0}, {2, 0, 0}, {2, 1, 0}, {1, 1, 0}, {1, 2, 0}, {0, 2, 0},
+                {0, 0, 1}, {2, 0, 1}, {2, 1, 1}, {1, 1, 1}, {1, 2, 1}, {0, 2, 1}};
+  l.face({0, 5, 4, 3, 2, 1});
+  l.face({6, 7, 8, 9, 10, 11});
+  for (std::int32_t k = 0; k < 6; ++k) l.face({k, (k + 1) % 6, (k + 1) % 6 + 6, k + 6});
+  const Vector3d lo(0.1, 0.2, 0.3), hi(0.9, 1.7, 1.1);
+  const Polyhedron box = hexahedron(box_corners(lo, hi));
+  int declined = 0;
+  const int trials = 4000;
+  for (int trial = 0; trial < trials; ++trial) {
+    const Vector3d c(pos(rng), pos(rng), pos(rng) * 0.6);
+    const double r = rad(rng);
+    const double ball = ball_volume(r);
+    const auto in_box = [](const Vector3d& p, const Vector3d& a, const Vector3d& b) {
+      return (p.array() > a.array()).all() && (p.array() < b.array()).all();
+    };
+    const bool in_l = in_box(c, Vector3d(0, 0, 0), Vector3d(2, 1, 1)) || in_box(c, Vector3d(0, 0, 0), Vector3d(1, 2, 1));
+    const double l_exact = sphere_box_overlap(c, r, Vector3d(0, 0, 0), Vector3d(2, 1, 1)) +
+                           sphere_box_overlap(c, r, Vector3d(0, 1, 0), Vector3d(1, 2, 1));
+    ASSERT_NEAR(located_or_general(l, l, c, r, in_l, declined), l_exact, 1e-13 * ball) << c.transpose() << " r " << r;
+    ASSERT_NEAR(located_or_general(l, faces_near(l, c, r), c, r, in_l, declined), l_exact, 1e-13 * ball)
+        << c.transpose();
+    const double box_exact = sphere_box_overlap(c, r, lo, hi);
+    const bool in = in_box(c, lo, hi);
+    ASSERT_NEAR(located_or_general(box, faces_near(box, c, r), c, r, in, declined), box_exact, 1e-13 * ball)
+        << c.transpose();
+    ASSERT_NEAR(located_or_general(box, box, c, r, in, declined), box.overlap(c, r), 1e-13 * ball) << c.transpose();
+  }
+  // Declining is for centres near an edge the ball reaches: a few in a hundred here.
+  EXPECT_LT(declined, 4 * trials / 20);
+}
+
+TEST(SpherePolyhedronOverlapLocated, CentresNearAnEdgeOrTheApexOfAWarpedFanTakeTheGeneralFormula) {
+  using namespace located;
+  // The left cell of NonConvexAndWarpedFanCellsAddUp: a warped quad as a fan about its apex.
+  const std::array<Vector3d, 4> warped{Vector3d(1, 0, 0), Vector3d(1, 1, 0), Vector3d(1.2, 1, 1), Vector3d(0.9, 0, 1)};
+  const Vector3d apex = (warped[0] + warped[1] + warped[2] + warped[3]) / 4;
+  Polyhedron left;
+  left.vertices = {{0, 0, 0}, {0, 1, 0}, {0, 1, 1}, {0, 0, 1}, warped[0], warped[1], warped[2], warped[3], apex};
+  left.face({0, 3, 2, 1});
+  left.face({0, 4, 7, 3});
+  left.face({1, 2, 6, 5});
+  left.face({0, 1, 5, 4});
+  left.face({3, 7, 6, 2});
+  for (std::int32_t k = 0; k < 4; ++k) left.face({8, 4 + k, 4 + (k + 1) % 4});
+  const double r = 0.3, ball = ball_volume(r);
+  // Beside the apex the fan triangles' solid angles change by O(1) within the distance
+  // to it; the located sum would lose digits (about 1e-17 of the ball over the distance).
+  for (const double delta : {1e-3, 1e-6, 1e-9, -1e-9, 1e-12}) {
+    const Vector3d c = apex + Vector3d(delta, 0, 0);
+    EXPECT_TRUE(std::isnan(overlap_located(left, c, r, delta < 0))) << delta;
+  }
+  // At a tenth of the cell from the apex and its spokes the located sum is accurate.
+  const Vector3d c = apex + Vector3d(-0.15, 0.1, 0.05);
+  const double v = overlap_located(left, c, r, true);
+  ASSERT_FALSE(std::isnan(v));
+  EXPECT_NEAR(v, left.overlap(c, r), 1e-15 * ball);
+  // Near a box edge both faces' lines are near: declined too.
+  const Polyhedron cube = hexahedron(box_corners(Vector3d::Zero(), Vector3d::Ones()));
+  EXPECT_TRUE(std::isnan(overlap_located(cube, Vector3d(0.5, 1e-5, 1e-5), r, true)));
+  EXPECT_NEAR(overlap_located(cube, Vector3d(0.5, 0.05, 0.05), r, true),
+              sphere_box_overlap(Vector3d(0.5, 0.05, 0.05), r, Vector3d::Zero(), Vector3d::Ones()), 1e-15 * ball);
+}
+
+TEST(SpherePolyhedronOverlapLocated, ACentreOnAReachingFacePlaneAsksForTheWholeSurface) {
+  using namespace located;
+  const Polyhedron cube = hexahedron(box_corners(Vector3d::Zero(), Vector3d::Ones()));
+  const double r = 0.3, ball = ball_volume(r);
+  // On the face z = 0, and within rounding of it: the side is unsure, NaN.
+  EXPECT_TRUE(std::isnan(overlap_located(cube, Vector3d(0.5, 0.5, 0), r, true)));
+  EXPECT_TRUE(std::isnan(overlap_located(cube, Vector3d(0.5, 0.5, 1e-15), r, true)));
+  EXPECT_TRUE(std::isnan(overlap_located(cube, Vector3d(0.5, 0.5, -1e-15), r, false)));
+  // 1e-9 away the side is clear, and the volume is the closed form's.
+  for (const double z : {1e-9, -1e-9, 1e-6}) {
+    const Vector3d c(0.5, 0.5, z);
+    EXPECT_NEAR(overlap_located(cube, c, r, z > 0), sphere_box_overlap(c, r, Vector3d::Zero(), Vector3d::Ones()),
+                1e-15 * ball)
+        << z;
+  }
+  // A plane through the centre whose face stays out of the ball is no reason to refuse.
+  const Vector3d beside(0.5, 0.5 + 1 + 0.5, 0);  // in the plane z = 0, 1.5 beyond y = 1
+  EXPECT_EQ(overlap_located(cube, beside, 0.3, false), 0.0);
+  // No face given: the ball is wholly on the side the caller located.
+  const Polyhedron none;
+  EXPECT_EQ(overlap_located(none, Vector3d(0.5, 0.5, 0.5), r, true), ball);
+  EXPECT_EQ(overlap_located(none, Vector3d(0.5, 0.5, 0.5), r, false), 0.0);
+}

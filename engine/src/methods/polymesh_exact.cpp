@@ -6,38 +6,61 @@
 #include <vfe/kernels/sphere_box_overlap.hpp>
 #include <vfe/kernels/sphere_polyhedron_overlap.hpp>
 
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
 namespace vfe::detail {
 
-/// Cell c's boundary as outward polygons into s.cell_*: a planar face as its polygon, a
-/// warped one as the fan (apex, P_i, P_i+1). Both cells of a face thus see the same
-/// surface (the point-location one), and their overlaps add up to that of their union.
-void cell_boundary(const PolyMesh& mesh, std::int64_t c, Scratch& s) {
-  s.cell_points.clear();
-  s.cell_face_points.clear();
-  s.cell_face_offsets.assign(1, 0);
+namespace {
+
+/// Appends face f of cell c to s.cell_*: a planar face as its polygon, a warped one as the
+/// fan (apex, P_i, P_i+1).
+void append_face(const PolyMesh& mesh, std::int64_t c, std::int64_t f, Scratch& s) {
   const auto close_face = [&] { s.cell_face_offsets.push_back(static_cast<std::int32_t>(s.cell_face_points.size())); };
-  for (const std::int64_t f : mesh.cell_faces(c)) {
-    const auto face = mesh.face(f);
-    const auto n = static_cast<std::int32_t>(face.size());
-    const auto first = static_cast<std::int32_t>(s.cell_points.size());
-    for (const std::int64_t q : face) s.cell_points.push_back(mesh.points()[static_cast<std::size_t>(q)]);
-    // The points' right-hand normal points out of the owner: the neighbour takes them reversed.
-    const bool owned = mesh.owner(f) == c;
-    const auto point = [&](std::int32_t i) { return first + (owned ? i : n - 1 - i); };
-    if (mesh.face_plane_triangle(f) >= 0) {
-      for (std::int32_t i = 0; i < n; ++i) s.cell_face_points.push_back(point(i));
+  const auto face = mesh.face(f);
+  const auto n = static_cast<std::int32_t>(face.size());
+  const auto first = static_cast<std::int32_t>(s.cell_points.size());
+  for (const std::int64_t q : face) s.cell_points.push_back(mesh.points()[static_cast<std::size_t>(q)]);
+  // The points' right-hand normal points out of the owner: the neighbour takes them reversed.
+  const bool owned = mesh.owner(f) == c;
+  const auto point = [&](std::int32_t i) { return first + (owned ? i : n - 1 - i); };
+  if (mesh.face_plane_triangle(f) >= 0) {
+    for (std::int32_t i = 0; i < n; ++i) s.cell_face_points.push_back(point(i));
+    close_face();
+  } else {
+    const auto apex = static_cast<std::int32_t>(s.cell_points.size());
+    s.cell_points.push_back(mesh.face_apex(f));
+    for (std::int32_t i = 0; i < n; ++i) {
+      s.cell_face_points.insert(s.cell_face_points.end(), {apex, point(i), point(i + 1 == n ? 0 : i + 1)});
       close_face();
-    } else {
-      const auto apex = static_cast<std::int32_t>(s.cell_points.size());
-      s.cell_points.push_back(mesh.face_apex(f));
-      for (std::int32_t i = 0; i < n; ++i) {
-        s.cell_face_points.insert(s.cell_face_points.end(), {apex, point(i), point(i + 1 == n ? 0 : i + 1)});
-        close_face();
-      }
     }
   }
 }
 
+void clear_boundary(Scratch& s) {
+  s.cell_points.clear();
+  s.cell_face_points.clear();
+  s.cell_face_offsets.assign(1, 0);
+}
+
+}  // namespace
+
+/// Both cells of a face thus see the same surface (the point-location one), and their
+/// overlaps add up to that of their union.
+void cell_boundary(const PolyMesh& mesh, std::int64_t c, Scratch& s) {
+  clear_boundary(s);
+  for (const std::int64_t f : mesh.cell_faces(c)) append_face(mesh, c, f, s);
+}
+
+void cell_boundary_near(const PolyMesh& mesh, std::int64_t c, const Eigen::Vector3d& centre, double radius,
+                        Scratch& s) {
+  clear_boundary(s);
+  const double reach = radius + mesh.location_tolerance();
+  for (const std::int64_t f : mesh.cell_faces(c))
+    if (std::fabs(mesh.face_normal(f).dot(centre - mesh.face_centre(f))) <= reach + mesh.face_warp(f))
+      append_face(mesh, c, f, s);
+}
 
 void polymesh_exact(const PolyContext& ctx, Scratch& s, const Particle& p) {
   const PolyMesh& mesh = ctx.locator->mesh();
@@ -53,6 +76,7 @@ void polymesh_exact(const PolyContext& ctx, Scratch& s, const Particle& p) {
   ctx.locator->hash().cells_in_box(Eigen::AlignedBox3d(c - half, c + half), s.candidate_cells);
   s.sub_elements += static_cast<std::int64_t>(s.candidate_cells.size());
   double inside = 0;
+  const bool located = mesh.inverted_tet_count() == 0;
   for (const std::int64_t cell : s.candidate_cells) {
     const Eigen::AlignedBox3d& box = mesh.cell_bounds(cell);
     if (box.squaredExteriorDistance(c) >= r2) continue;
@@ -65,8 +89,19 @@ void polymesh_exact(const PolyContext& ctx, Scratch& s, const Particle& p) {
     } else if (cached_cell_is_box(mesh, s, cell, cell_box)) {  // the grids' closed form
       v = kernels::sphere_box_overlap(c, r, cell_box.min(), cell_box.max());
     } else {
-      cell_boundary(mesh, cell, s);
-      v = kernels::sphere_polyhedron_overlap(c, r, s.cell_points, s.cell_face_offsets, s.cell_face_points);
+      // Point location is exact on the same surface: it tells whether the centre is inside
+      // (not where some tetrahedra are inverted: their union is not the bounded region).
+      v = std::numeric_limits<double>::quiet_NaN();
+      if (located) {
+        cell_boundary_near(mesh, cell, c, r, s);
+        v = std::min(kernels::sphere_polyhedron_overlap_located(c, r, cell == centre_cell, s.cell_points,
+                                                                 s.cell_face_offsets, s.cell_face_points),
+                     mesh.cell_volume(cell));
+      }
+      if (std::isnan(v)) {  // a centre within rounding of a face plane: the whole surface
+        cell_boundary(mesh, cell, s);
+        v = kernels::sphere_polyhedron_overlap(c, r, s.cell_points, s.cell_face_offsets, s.cell_face_points);
+      }
     }
     if (v > 0) {
       s.deposits.push_back({cell, v});  // candidates are distinct: no merge needed
