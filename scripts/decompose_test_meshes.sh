@@ -19,7 +19,7 @@ numberOfSubdomains $np;
 method simple;
 coeffs { n ($n); }
 DICT
-  (cd "$case" && decomposePar -force >log.decomposePar 2>&1) || { tail -20 "$case/log.decomposePar"; exit 1; }
+  (cd "$case" && decomposePar -force >log.decomposePar 2>&1) || { tail -n 20 "$case/log.decomposePar"; exit 1; }
   rm -rf "$out/${mesh}_$np"
   for ((p = 0; p < np; ++p)); do
     dest="$out/${mesh}_$np/processor$p/constant/polyMesh"

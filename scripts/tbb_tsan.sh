@@ -22,7 +22,7 @@ source_dir="$(find "$root" -mindepth 1 -maxdepth 1 -type d -name "$package-*" | 
 cmake -S "$source_dir" -B "$root/build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_INSTALL_PREFIX="$prefix" \
   -DTBB_SANITIZE=thread -DTBB_TEST=OFF -DTBB_EXAMPLES=OFF -DTBB_STRICT=OFF -DTBBMALLOC_BUILD=OFF >/dev/null
 if ! cmake --build "$root/build" -j "$(nproc)" >"$root/build.log" 2>&1; then
-  tail -40 "$root/build.log" >&2
+  tail -n 40 "$root/build.log" >&2
   exit 1
 fi
 cmake --install "$root/build" >/dev/null

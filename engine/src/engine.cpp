@@ -970,6 +970,7 @@ struct Engine::Impl {
     Report rep{};
     lattice_particles = 0;
     auto_paths[0] = auto_paths[1] = auto_paths[2] = 0;
+    located_cells = general_cells = 0;
     rep.particles = pa.n;
     rep.particle_volume = particle_volume_sum;
     rep.particle_grid_min = std::numeric_limits<std::int64_t>::max();
@@ -982,6 +983,8 @@ struct Engine::Impl {
       auto_paths[0] += s.auto_fast;
       auto_paths[1] += s.auto_pmm;
       auto_paths[2] += s.auto_exact;
+      located_cells += s.located_cells;
+      general_cells += s.general_cells;
       rep.particle_grid_min = std::min(rep.particle_grid_min, s.grid_min);
       rep.particle_grid_max = std::max(rep.particle_grid_max, s.grid_max);
       first_error = std::min(first_error, s.first_error);
@@ -1020,6 +1023,9 @@ struct Engine::Impl {
   std::int64_t lattice_particles = 0;
   /// method=auto: particles of the last compute on the fast path, pmm and exact.
   std::int64_t auto_paths[3] = {0, 0, 0};
+  /// exact on a polyMesh: cut-cell overlaps of the last compute by the located sum and by
+  /// the general formula.
+  std::int64_t located_cells = 0, general_cells = 0;
   /// What the report says of the field: its sum, the solid volume that clipping eps at
   /// alpha_min removes (0 when alpha_min is 0: no clip), and the overfull cells.
   struct FieldFacts {
@@ -1326,6 +1332,8 @@ double Engine::last_report_value(std::string_view key) const {
       {"auto_fast", double(impl_->have_field ? impl_->auto_paths[0] : 0)},
       {"auto_pmm", double(impl_->have_field ? impl_->auto_paths[1] : 0)},
       {"auto_exact", double(impl_->have_field ? impl_->auto_paths[2] : 0)},
+      {"exact_located_cells", double(impl_->have_field ? impl_->located_cells : 0)},
+      {"exact_general_cells", double(impl_->have_field ? impl_->general_cells : 0)},
   };
   std::string known = "the vfe_report fields";
   for (const auto& [name, value] : facts) {

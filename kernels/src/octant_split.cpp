@@ -20,9 +20,10 @@ void prepare_octant_split(ParticleTemplate& t) {
   for (const double f : t.fractions)
     if (f != t.fractions[0]) return;
   const std::size_t words = (n + 63) / 64, stride = words * 64;
-  // Padding is NaN: it compares below every plane and is never near one. The scale is a
-  // power of two, so it changes no rounding.
-  t.split_points.assign(3 * stride, std::numeric_limits<float>::quiet_NaN());
+  // Padding is the origin, masked out by the counters (not NaN: converting or comparing NaN
+  // raises the invalid-operation exception, which hosts such as OpenFOAM trap). The scale
+  // is a power of two, so it changes no rounding.
+  t.split_points.assign(3 * stride, 0.0f);
   for (std::size_t s = 0; s < n; ++s)
     for (int d = 0; d < 3; ++d) t.split_points[d * stride + s] = static_cast<float>(kSplitScale * t.points[s][d]);
   t.split_words = words;
@@ -126,8 +127,8 @@ template <unsigned kSplit>
 #ifdef VFE_OCTANT_AVX2
 /// Per split axis d the scaled distance k = round(kSplitScale (R_d . q - tau_d)) of each
 /// point as an integer (the points are stored scaled): k = 0 is a point within the guard
-/// band (the particle goes to double), k > 0 above, k < 0 below (NaN padding converts to
-/// INT_MIN: below). Four groups of eight points pack with saturation (which keeps sign and
+/// band (the particle goes to double), k > 0 above, k < 0 below (the padding of the last
+/// group gets its sign bit set: below, never in the band). Four groups of eight points pack with saturation (which keeps sign and
 /// zero) into 32 bytes, whose sign bits are one movemask: 32 points per axis in a few
 /// instructions. The packs interleave the points in a fixed order, the same for every
 /// axis, and a count of "above on every axis of a set" does not depend on the order.
@@ -152,6 +153,9 @@ __attribute__((target("avx2,fma,popcnt"))) bool count_avx2(const ParticleTemplat
   const float* y = x + stride;
   const float* z = y + stride;
   const __m256i below_all = _mm256_set1_epi32(std::numeric_limits<std::int32_t>::min());
+  const int last_points = static_cast<int>(n - 8 * (groups - 1));  // 1 to 8
+  const __m256i last_padding = _mm256_and_si256(
+      below_all, _mm256_cmpgt_epi32(_mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), _mm256_set1_epi32(last_points - 1)));
   __m256i near = _mm256_setzero_si256();
   std::int32_t P[8] = {};
   P[0] = static_cast<std::int32_t>(n);
@@ -175,6 +179,7 @@ __attribute__((target("avx2,fma,popcnt"))) bool count_avx2(const ParticleTemplat
                            _mm256_fmadd_ps(r1[a], _mm256_loadu_ps(y + s),
                                            _mm256_fmadd_ps(r0[a], _mm256_loadu_ps(x + s), shift[a]))))
                      : below_all;  // beyond the template: below every plane, no work
+          if (group + g + 1 == groups) k[g] = _mm256_or_si256(k[g], last_padding);
         }
         const __m256i bytes = _mm256_packs_epi16(_mm256_packs_epi32(k[0], k[1]), _mm256_packs_epi32(k[2], k[3]));
         near = _mm256_or_si256(near, _mm256_cmpeq_epi8(bytes, _mm256_setzero_si256()));

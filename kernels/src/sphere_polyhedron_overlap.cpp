@@ -50,8 +50,8 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <limits>
 #include <numbers>
+#include <optional>
 
 namespace vfe::kernels {
 namespace {
@@ -136,8 +136,8 @@ namespace {
 
 /// The overlap. winding: the centre's winding number about the surface, or -1 if unknown;
 /// when known, faces that do not reach into the open ball may be left out, and a centre
-/// within rounding of a reaching face's plane gives NaN.
-double overlap(const Eigen::Vector3d& centre, double radius, std::span<const Eigen::Vector3d> vertices,
+/// within rounding of a reaching face's plane gives no value.
+std::optional<double> overlap(const Eigen::Vector3d& centre, double radius, std::span<const Eigen::Vector3d> vertices,
                std::span<const std::int32_t> face_offsets, std::span<const std::int32_t> face_vertices,
                int winding) {
   const bool known = winding >= 0;
@@ -236,7 +236,7 @@ double overlap(const Eigen::Vector3d& centre, double radius, std::span<const Eig
       continue;
     }
     if (known && h <= height_rounding)  // which side of this plane the centre is on is unsure
-      return std::numeric_limits<double>::quiet_NaN();
+      return std::nullopt;
     boundary_in_ball = true;
     if (height == 0) continue;  // a face through the centre adds no volume
 
@@ -269,7 +269,7 @@ double overlap(const Eigen::Vector3d& centre, double radius, std::span<const Eig
         // the line, so a centre near an edge (rho small against the edge's reach) would
         // take the rounding of d and h times length / rho.
         if (rho * rho < kEdgeMargin2 * (std::max(sa * sa, sb * sb) + d * d))
-          return std::numeric_limits<double>::quiet_NaN();
+          return std::nullopt;
         part = right_triangle_cone_in_disc(pl, d, rho, sb) - right_triangle_cone_in_disc(pl, d, rho, sa);
       }
       face_volume += d_signed > 0 ? part : -part;
@@ -289,13 +289,14 @@ double sphere_polyhedron_overlap(const Eigen::Vector3d& centre, double radius,
                                  std::span<const Eigen::Vector3d> vertices,
                                  std::span<const std::int32_t> face_offsets,
                                  std::span<const std::int32_t> face_vertices) {
-  return overlap(centre, radius, vertices, face_offsets, face_vertices, -1);
+  return *overlap(centre, radius, vertices, face_offsets, face_vertices, -1);  // declines only when located
 }
 
-double sphere_polyhedron_overlap_located(const Eigen::Vector3d& centre, double radius, bool centre_inside,
-                                         std::span<const Eigen::Vector3d> vertices,
-                                         std::span<const std::int32_t> face_offsets,
-                                         std::span<const std::int32_t> face_vertices) {
+std::optional<double> sphere_polyhedron_overlap_located(const Eigen::Vector3d& centre, double radius,
+                                                        bool centre_inside,
+                                                        std::span<const Eigen::Vector3d> vertices,
+                                                        std::span<const std::int32_t> face_offsets,
+                                                        std::span<const std::int32_t> face_vertices) {
   return overlap(centre, radius, vertices, face_offsets, face_vertices, centre_inside ? 1 : 0);
 }
 

@@ -18,7 +18,7 @@ fields="$src/tests/hosts/foam_fields.py"
 case="$work/case"
 cp -r "$src/tests/hosts/openfoam_box" "$case"
 (cd "$case" && blockMesh >log.blockMesh 2>&1 && scalarTransportFoam >log.solver 2>&1) ||
-  { tail -30 "$case"/log.*; exit 1; }
+  { tail -n 30 "$case"/log.*; exit 1; }
 
 for t in 0.15 0.3; do
   step=$(awk -v t="$t" 'BEGIN { printf "%d", t / 1e-5 + 0.5 }')
@@ -39,7 +39,7 @@ done
 
 # postProcess executes the controlDict's functions for the written times.
 for t in 0.15 0.3; do mkdir -p "$case/solver_$t" && mv "$case/$t/voidfraction" "$case/$t/Us" "$case/solver_$t/"; done
-(cd "$case" && postProcess >log.postProcess 2>&1) || { tail -30 "$case/log.postProcess"; exit 1; }
+(cd "$case" && postProcess >log.postProcess 2>&1) || { tail -n 30 "$case/log.postProcess"; exit 1; }
 for t in 0.15 0.3; do
   "$fields" diff "$case/$t/voidfraction" "$case/solver_$t/voidfraction"
 done
@@ -50,7 +50,7 @@ if (cd "$case" && postProcess -latestTime >log.badDumps 2>&1); then
   echo "postProcess ran with dumps that match nothing"; exit 1
 fi
 grep -q "no dump file matches '.*no_such_\*.dump.gz'" "$case/log.badDumps" ||
-  { echo "no message naming the pattern:"; tail -20 "$case/log.badDumps"; exit 1; }
+  { echo "no message naming the pattern:"; tail -n 20 "$case/log.badDumps"; exit 1; }
 # A dump cut inside its atom list: the message names the file and line.
 gzip -dc "$src/data/liggghts/bed_mono_frames/bed_mono_30000.dump.gz" | sed -n 1,5000p >"$work/cut_30000.dump"
 sed -i "s|\"[^\"]*no_such_\*.dump.gz\"|\"$work/cut_*.dump\"|" "$case/system/controlDict"
@@ -58,7 +58,7 @@ if (cd "$case" && postProcess -latestTime >log.cutDump 2>&1); then
   echo "postProcess ran on a truncated dump"; exit 1
 fi
 grep -q "cut_30000.dump:5000: the file ends inside the atom list" "$case/log.cutDump" ||
-  { echo "no message naming the truncated dump's line:"; tail -20 "$case/log.cutDump"; exit 1; }
+  { echo "no message naming the truncated dump's line:"; tail -n 20 "$case/log.cutDump"; exit 1; }
 sed -i "s|\"$work/cut_\*.dump\"|\"\$VFE_DATA/liggghts/bed_mono_frames/bed_mono_*.dump.gz\"|" "$case/system/controlDict"
 
 if [ "$np" -gt 1 ]; then
@@ -71,7 +71,7 @@ if [ "$np" -gt 1 ]; then
     (cd "$dir" && decomposePar -force >log.decomposePar 2>&1 &&
        mpirun --allow-run-as-root --oversubscribe -np "$np" "$app" -parallel >log.parallel 2>&1 &&
        reconstructPar -fields "($*)" >log.reconstructPar 2>&1) ||
-      { tail -30 "$dir"/log.*; exit 1; }
+      { tail -n 30 "$dir"/log.*; exit 1; }
   }
   for t in 0.15 0.3; do
     mkdir -p "$case/serial_$t" && cp "$case/$t/voidfraction" "$case/$t/voidfraction_exact" "$case/$t/Us" "$case/serial_$t/"
@@ -89,7 +89,7 @@ if [ "$np" -gt 1 ]; then
   graded="$work/graded"
   cp -r "$src/tests/hosts/openfoam_graded" "$graded"
   mkdir -p "$graded/0.3" "$graded/serial"
-  (cd "$graded" && blockMesh >log.blockMesh 2>&1 && postProcess >log.serial 2>&1) || { tail -30 "$graded"/log.*; exit 1; }
+  (cd "$graded" && blockMesh >log.blockMesh 2>&1 && postProcess >log.serial 2>&1) || { tail -n 30 "$graded"/log.*; exit 1; }
   cp "$graded/0.3/voidfraction" "$graded/0.3/voidfraction_divided" "$graded/serial/"
   parallel "$graded" voidfraction voidfraction_divided
   for f in voidfraction voidfraction_divided; do

@@ -20,6 +20,7 @@
 #include <cstdint>
 #include <initializer_list>
 #include <numbers>
+#include <optional>
 #include <random>
 #include <vector>
 
@@ -540,7 +541,7 @@ Polyhedron faces_near(const Polyhedron& p, const Vector3d& c, double reach) {
   return near;
 }
 
-double overlap_located(const Polyhedron& p, const Vector3d& c, double r, bool inside) {
+std::optional<double> overlap_located(const Polyhedron& p, const Vector3d& c, double r, bool inside) {
   return sphere_polyhedron_overlap_located(c, r, inside, p.vertices, p.offsets, p.indices);
 }
 
@@ -548,8 +549,7 @@ double overlap_located(const Polyhedron& p, const Vector3d& c, double r, bool in
 /// general one of `whole` where the located one declines, as the engine does.
 double located_or_general(const Polyhedron& whole, const Polyhedron& part, const Vector3d& c, double r, bool inside,
                           int& declined) {
-  const double v = overlap_located(part, c, r, inside);
-  if (!std::isnan(v)) return v;
+  if (const std::optional<double> v = overlap_located(part, c, r, inside)) return *v;
   ++declined;
   return whole.overlap(c, r);
 }
@@ -638,17 +638,17 @@ TEST(SpherePolyhedronOverlapLocated, CentresNearAnEdgeOrTheApexOfAWarpedFanTakeT
   // to it; the located sum would lose digits (about 1e-17 of the ball over the distance).
   for (const double delta : {1e-3, 1e-6, 1e-9, -1e-9, 1e-12}) {
     const Vector3d c = apex + Vector3d(delta, 0, 0);
-    EXPECT_TRUE(std::isnan(overlap_located(left, c, r, delta < 0))) << delta;
+    EXPECT_FALSE(overlap_located(left, c, r, delta < 0).has_value()) << delta;
   }
   // At a tenth of the cell from the apex and its spokes the located sum is accurate.
   const Vector3d c = apex + Vector3d(-0.15, 0.1, 0.05);
-  const double v = overlap_located(left, c, r, true);
-  ASSERT_FALSE(std::isnan(v));
-  EXPECT_NEAR(v, left.overlap(c, r), 1e-15 * ball);
+  const std::optional<double> v = overlap_located(left, c, r, true);
+  ASSERT_TRUE(v.has_value());
+  EXPECT_NEAR(*v, left.overlap(c, r), 1e-15 * ball);
   // Near a box edge both faces' lines are near: declined too.
   const Polyhedron cube = hexahedron(box_corners(Vector3d::Zero(), Vector3d::Ones()));
-  EXPECT_TRUE(std::isnan(overlap_located(cube, Vector3d(0.5, 1e-5, 1e-5), r, true)));
-  EXPECT_NEAR(overlap_located(cube, Vector3d(0.5, 0.05, 0.05), r, true),
+  EXPECT_FALSE(overlap_located(cube, Vector3d(0.5, 1e-5, 1e-5), r, true).has_value());
+  EXPECT_NEAR(overlap_located(cube, Vector3d(0.5, 0.05, 0.05), r, true).value(),
               sphere_box_overlap(Vector3d(0.5, 0.05, 0.05), r, Vector3d::Zero(), Vector3d::Ones()), 1e-15 * ball);
 }
 
@@ -656,14 +656,14 @@ TEST(SpherePolyhedronOverlapLocated, ACentreOnAReachingFacePlaneAsksForTheWholeS
   using namespace located;
   const Polyhedron cube = hexahedron(box_corners(Vector3d::Zero(), Vector3d::Ones()));
   const double r = 0.3, ball = ball_volume(r);
-  // On the face z = 0, and within rounding of it: the side is unsure, NaN.
-  EXPECT_TRUE(std::isnan(overlap_located(cube, Vector3d(0.5, 0.5, 0), r, true)));
-  EXPECT_TRUE(std::isnan(overlap_located(cube, Vector3d(0.5, 0.5, 1e-15), r, true)));
-  EXPECT_TRUE(std::isnan(overlap_located(cube, Vector3d(0.5, 0.5, -1e-15), r, false)));
+  // On the face z = 0, and within rounding of it: the side is unsure, no value.
+  EXPECT_FALSE(overlap_located(cube, Vector3d(0.5, 0.5, 0), r, true).has_value());
+  EXPECT_FALSE(overlap_located(cube, Vector3d(0.5, 0.5, 1e-15), r, true).has_value());
+  EXPECT_FALSE(overlap_located(cube, Vector3d(0.5, 0.5, -1e-15), r, false).has_value());
   // 1e-9 away the side is clear, and the volume is the closed form's.
   for (const double z : {1e-9, -1e-9, 1e-6}) {
     const Vector3d c(0.5, 0.5, z);
-    EXPECT_NEAR(overlap_located(cube, c, r, z > 0), sphere_box_overlap(c, r, Vector3d::Zero(), Vector3d::Ones()),
+    EXPECT_NEAR(overlap_located(cube, c, r, z > 0).value(), sphere_box_overlap(c, r, Vector3d::Zero(), Vector3d::Ones()),
                 1e-15 * ball)
         << z;
   }

@@ -182,7 +182,10 @@ VFE_API vfe_status vfe_last_report(const vfe_engine* e, vfe_report* out);
  *  0 for other meshes), "lattice_particles" (particles that took that lattice's grid
  *  path, option lattice=1) and, for method=auto, "auto_fast", "auto_pmm" and "auto_exact"
  *  (spheres computed on the fast path, by pmm and by the exact overlap; shapes count as
- *  pmm; 0 for other methods). Unknown keys
+ *  pmm; 0 for other methods), "exact_located_cells" and "exact_general_cells" (exact on
+ *  a polyMesh: cut cells that are not boxes, by the sum over the faces that reach the ball
+ *  from the centre's located side, and by the general formula over the whole boundary,
+ *  taken near a face plane or edge line; 0 elsewhere). Unknown keys
  *  give VFE_ERROR_INVALID_ARGUMENT. New facts get new keys, so vfe_report never changes. */
 VFE_API vfe_status vfe_last_report_value(const vfe_engine* e, const char* key, double* out);
 

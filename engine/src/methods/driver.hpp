@@ -52,6 +52,7 @@ struct Scratch {
   std::int64_t counted = 0;  ///< pmm: particles whose sub-elements were counted per octant
   std::int64_t lattice_particles = 0;  // polyMesh of box cells: particles the grid's driver took
   std::int64_t auto_fast = 0, auto_pmm = 0, auto_exact = 0;  // method=auto: particles per path
+  std::int64_t located_cells = 0, general_cells = 0;  // polyMesh exact: cut cells per overlap formula
   std::int64_t first_error = std::numeric_limits<std::int64_t>::max();
   std::int64_t grid_min = std::numeric_limits<std::int64_t>::max(), grid_max = 0;
 
@@ -112,6 +113,7 @@ struct Scratch {
   void reset_counters() {
     fast_path = sub_elements = outside_particles = lattice_particles = grid_max = counted = 0;
     auto_fast = auto_pmm = auto_exact = 0;
+    located_cells = general_cells = 0;
     first_error = grid_min = std::numeric_limits<std::int64_t>::max();
   }
 

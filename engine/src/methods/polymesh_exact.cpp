@@ -8,7 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
+#include <optional>
 
 namespace vfe::detail {
 
@@ -91,14 +91,17 @@ void polymesh_exact(const PolyContext& ctx, Scratch& s, const Particle& p) {
     } else {
       // Point location is exact on the same surface: it tells whether the centre is inside
       // (not where some tetrahedra are inverted: their union is not the bounded region).
-      v = std::numeric_limits<double>::quiet_NaN();
+      std::optional<double> located_volume;
       if (located) {
         cell_boundary_near(mesh, cell, c, r, s);
-        v = std::min(kernels::sphere_polyhedron_overlap_located(c, r, cell == centre_cell, s.cell_points,
-                                                                 s.cell_face_offsets, s.cell_face_points),
-                     mesh.cell_volume(cell));
+        located_volume = kernels::sphere_polyhedron_overlap_located(c, r, cell == centre_cell, s.cell_points,
+                                                                    s.cell_face_offsets, s.cell_face_points);
       }
-      if (std::isnan(v)) {  // a centre within rounding of a face plane: the whole surface
+      if (located_volume) {
+        ++s.located_cells;
+        v = std::min(*located_volume, mesh.cell_volume(cell));
+      } else {  // a centre near a reaching face's plane or edge: the whole surface
+        ++s.general_cells;
         cell_boundary(mesh, cell, s);
         v = kernels::sphere_polyhedron_overlap(c, r, s.cell_points, s.cell_face_offsets, s.cell_face_points);
       }

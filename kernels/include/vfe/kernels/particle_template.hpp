@@ -21,8 +21,8 @@ struct ParticleTemplate {
   int shells = 0, bands = 0, sectors = 0;  ///< spherical family's layout; 0 for others
   int lattice = 0;     ///< voxel family: cubes per diameter; 0 for others
   /// The points as floats for counting sub-elements per octant (octant_split.hpp): x of
-  /// every point, then y, then z, each padded with NaN to split_words x 64 values, all times
-  /// kSplitScale.
+  /// every point, then y, then z, each padded with zeros to split_words x 64 values, all
+  /// times kSplitScale.
   /// Empty unless prepare_octant_split made them (it needs equal fractions).
   std::vector<float> split_points;
   std::size_t split_words = 0;

@@ -4,6 +4,7 @@
 #include <Eigen/Core>
 
 #include <cstdint>
+#include <optional>
 #include <span>
 
 namespace vfe::kernels {
@@ -34,16 +35,18 @@ double sphere_polyhedron_overlap(const Eigen::Vector3d& centre, double radius,
 /// every face reaching into the open ball; the others add nothing and need not be given
 /// (the vertices need only be those of the faces given). The result is the overlap to the
 /// general function's round-off, clamped to [0, ball volume] (clamp it to the polyhedron's
-/// volume, which this part of the surface cannot give, if needed). NaN when the centre lies
-/// within rounding (about 1e-12 of the largest coordinate) of the plane of a face that
-/// reaches into the ball: there the winding number jumps, so call the general function with
-/// the whole surface. A wrong `centre_inside` gives a wrong volume.
+/// volume, which this part of the surface cannot give, if needed). No value when the centre
+/// lies within rounding (about 1e-12 of the largest coordinate) of the plane of a face that
+/// reaches into the ball, or close to such a face's edge line: there the winding number
+/// jumps, so call the general function with the whole surface. (No NaN: hosts such as
+/// OpenFOAM trap the invalid operation a comparison with NaN raises.) A wrong `centre_inside` gives a wrong volume.
 /// Cost: a face that does not reach into the ball costs its plane only, and the rest need
 /// fewer arc tangents than in the general function.
-double sphere_polyhedron_overlap_located(const Eigen::Vector3d& centre, double radius, bool centre_inside,
-                                         std::span<const Eigen::Vector3d> vertices,
-                                         std::span<const std::int32_t> face_offsets,
-                                         std::span<const std::int32_t> face_vertices);
+std::optional<double> sphere_polyhedron_overlap_located(const Eigen::Vector3d& centre, double radius,
+                                                        bool centre_inside,
+                                                        std::span<const Eigen::Vector3d> vertices,
+                                                        std::span<const std::int32_t> face_offsets,
+                                                        std::span<const std::int32_t> face_vertices);
 
 /// Volume of the ball intersected with the tetrahedron (a, b, c, d), either orientation;
 /// 0 for a flat tetrahedron.
