@@ -128,9 +128,9 @@ template <unsigned kSplit>
 /// Per split axis d the scaled distance k = round(kSplitScale (R_d . q - tau_d)) of each
 /// point as an integer (the points are stored scaled): k = 0 is a point within the guard
 /// band (the particle goes to double), k > 0 above, k < 0 below (the padding of the last
-/// group gets its sign bit set: below, never in the band). Four groups of eight points pack with saturation (which keeps sign and
-/// zero) into 32 bytes, whose sign bits are one movemask: 32 points per axis in a few
-/// instructions. The packs interleave the points in a fixed order, the same for every
+/// group gets its sign bit set: below, never in the band). Four groups of eight points
+/// pack with saturation (which keeps sign and zero) into 32 bytes, whose sign bits are one
+/// movemask: 32 points per axis in a few instructions. The packs interleave the points in a fixed order, the same for every
 /// axis, and a count of "above on every axis of a set" does not depend on the order.
 /// kGroups: the template's groups of eight points when it has at most 64 (the loops then
 /// unroll into straight code), 0 for any size.

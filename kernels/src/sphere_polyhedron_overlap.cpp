@@ -136,10 +136,10 @@ namespace {
 
 /// The overlap. winding: the centre's winding number about the surface, or -1 if unknown;
 /// when known, faces that do not reach into the open ball may be left out, and a centre
-/// within rounding of a reaching face's plane gives no value.
-std::optional<double> overlap(const Eigen::Vector3d& centre, double radius, std::span<const Eigen::Vector3d> vertices,
-               std::span<const std::int32_t> face_offsets, std::span<const std::int32_t> face_vertices,
-               int winding) {
+/// within rounding of a reaching face's plane or near a reaching edge's line gives no value.
+std::optional<double> overlap(const Eigen::Vector3d& centre, double radius,
+                              std::span<const Eigen::Vector3d> vertices, std::span<const std::int32_t> face_offsets,
+                              std::span<const std::int32_t> face_vertices, int winding) {
   const bool known = winding >= 0;
   if (!(radius > 0)) return 0;
   const double r = radius, r2 = r * r, r3 = r * r * r;

@@ -39,7 +39,8 @@ double sphere_polyhedron_overlap(const Eigen::Vector3d& centre, double radius,
 /// lies within rounding (about 1e-12 of the largest coordinate) of the plane of a face that
 /// reaches into the ball, or close to such a face's edge line: there the winding number
 /// jumps, so call the general function with the whole surface. (No NaN: hosts such as
-/// OpenFOAM trap the invalid operation a comparison with NaN raises.) A wrong `centre_inside` gives a wrong volume.
+/// OpenFOAM trap the invalid operation a comparison with NaN raises.) A wrong
+/// `centre_inside` gives a wrong volume.
 /// Cost: a face that does not reach into the ball costs its plane only, and the rest need
 /// fewer arc tangents than in the general function.
 std::optional<double> sphere_polyhedron_overlap_located(const Eigen::Vector3d& centre, double radius,
