@@ -519,25 +519,28 @@ struct Engine::Impl {
       const detail::QuickGrid* g = quick.window_grid();
       if (g && hybrid && !detail::auto_counts_every_window(*quick.single_template())) g = nullptr;
       if (g) {
-        // Windows and thresholds of a few spheres at once (pmm_plan.hpp), then their counts.
-        detail::QuickWindows windows;
-        for (std::int64_t first = r.begin(); first < r.end(); first += detail::kQuickBlock) {
-          const std::int64_t count = std::min(detail::kQuickBlock, r.end() - first);
-          detail::plan_sphere_windows(pa, first, count, *g, windows);
+        // Windows and thresholds of a few spheres at once (pmm_plan.hpp), then their counts
+        // (grouped by split axes: PmmQuick::finish_chunk).
+        constexpr std::int64_t kChunk = detail::PmmQuick::kChunk;
+        detail::QuickWindows planned[kChunk / detail::kQuickBlock];
+        for (std::int64_t chunk = r.begin(); chunk < r.end(); chunk += kChunk) {
+          const std::int64_t n = std::min(kChunk, r.end() - chunk);
+          for (std::int64_t k = 0; k < n; k += detail::kQuickBlock)
+            detail::plan_sphere_windows(pa, chunk + k, std::min(detail::kQuickBlock, n - k), *g,
+                                        planned[k / detail::kQuickBlock]);
           detail::PmmQuick::Tally tally;
-          for (std::int64_t i = 0; i < count; ++i) {
-            const std::int64_t p = first + i;
-            const double radius = pa.radius(p);
-            // An octant without sub-elements may add 0.0: a cell of the private field stays as it is.
-            if (!quick.finish_window(tally, windows, i, sphere_volume(radius), pa.rotation_key(p), add,
-                                     detail::PmmQuick::EmptyOctants::add_zero)) {
-              general(p);
-            } else if (hybrid) {
-              part.centre = pa.centre(p);
-              part.radius = radius;
-              detail::auto_count_quick(ctx.grid, s, part, windows.kind[i] == detail::QuickWindows::fast);
-            }
-          }
+          quick.finish_chunk(
+              tally, planned, n, [&](std::int64_t k) { return sphere_volume(pa.radius(chunk + k)); },
+              [&](std::int64_t k) { return pa.rotation_key(chunk + k); }, add,
+              [&](std::int64_t k, bool fast) {
+                if (!hybrid) return;
+                part.centre = pa.centre(chunk + k);
+                part.radius = pa.radius(chunk + k);
+                detail::auto_count_quick(ctx.grid, s, part, fast);
+              },
+              [&](std::int64_t k) { general(chunk + k); },
+              // An octant without sub-elements may add 0.0: a cell of the private field stays as it is.
+              detail::PmmQuick::EmptyOctants::add_zero);
           quick.commit(s, tally);
         }
         return;

@@ -106,6 +106,13 @@ bool count_unsplit(const ParticleTemplate& t, const float*, const float*, std::i
   return true;
 }
 
+/// A batch by calls of one particle's code (inlined where it is visible).
+template <auto kCount>
+void count_batch(const ParticleTemplate& t, const OctantQuery* queries, std::size_t n, std::int32_t* counts,
+                 std::uint8_t* decided) {
+  for (std::size_t k = 0; k < n; ++k) decided[k] = kCount(t, queries[k].rows, queries[k].tau, counts + 8 * k);
+}
+
 /// Octant counts from P[S], the points above every plane of axis set S (P[0] = all
 /// points, P[S] = 0 for a set with an axis not split): per split axis d, taking the points
 /// above d out of each set without d leaves, after every split axis, the points above
@@ -130,13 +137,14 @@ template <unsigned kSplit>
 /// band (the particle goes to double), k > 0 above, k < 0 below (the padding of the last
 /// group gets its sign bit set: below, never in the band). Four groups of eight points
 /// pack with saturation (which keeps sign and zero) into 32 bytes, whose sign bits are one
-/// movemask: 32 points per axis in a few instructions. The packs interleave the points in a fixed order, the same for every
-/// axis, and a count of "above on every axis of a set" does not depend on the order.
+/// movemask: 32 points per axis in a few instructions. The packs interleave the points in a
+/// fixed order, the same for every axis, and a count of "above on every axis of a set" does
+/// not depend on the order.
 /// kGroups: the template's groups of eight points when it has at most 64 (the loops then
 /// unroll into straight code), 0 for any size.
 template <unsigned kSplit, std::size_t kGroups>
-__attribute__((target("avx2,fma,popcnt"))) bool count_avx2(const ParticleTemplate& t, const float* rows,
-                                                         const float tau[3], std::int32_t counts[8]) {
+[[gnu::always_inline]] inline __attribute__((target("avx2,fma,popcnt"))) bool count_avx2_body(
+    const ParticleTemplate& t, const float* rows, const float tau[3], std::int32_t counts[8]) {
   constexpr int kAxes = std::popcount(kSplit);
   constexpr unsigned kRest = kSplit & (kSplit - 1);  // the split axes after the first
   constexpr int axis[3] = {std::countr_zero(kSplit), std::countr_zero(kRest), std::countr_zero(kRest & (kRest - 1))};
@@ -201,10 +209,27 @@ __attribute__((target("avx2,fma,popcnt"))) bool count_avx2(const ParticleTemplat
   return true;
 }
 
+template <unsigned kSplit, std::size_t kGroups>
+__attribute__((target("avx2,fma,popcnt"))) bool count_avx2(const ParticleTemplate& t, const float* rows,
+                                                         const float tau[3], std::int32_t counts[8]) {
+  return count_avx2_body<kSplit, kGroups>(t, rows, tau, counts);
+}
+
+template <unsigned kSplit, std::size_t kGroups>
+__attribute__((target("avx2,fma,popcnt"))) void count_batch_avx2(const ParticleTemplate& t,
+                                                               const OctantQuery* queries, std::size_t n,
+                                                               std::int32_t* counts, std::uint8_t* decided) {
+  for (std::size_t k = 0; k < n; ++k)
+    decided[k] = count_avx2_body<kSplit, kGroups>(t, queries[k].rows, queries[k].tau, counts + 8 * k);
+}
+
 template <std::size_t kGroups>
 constexpr OctantCounter vector_counter() {
   return {{count_unsplit, count_avx2<1, kGroups>, count_avx2<2, kGroups>, count_avx2<3, kGroups>,
-           count_avx2<4, kGroups>, count_avx2<5, kGroups>, count_avx2<6, kGroups>, count_avx2<7, kGroups>}};
+           count_avx2<4, kGroups>, count_avx2<5, kGroups>, count_avx2<6, kGroups>, count_avx2<7, kGroups>},
+          {count_batch<count_unsplit>, count_batch_avx2<1, kGroups>, count_batch_avx2<2, kGroups>,
+           count_batch_avx2<3, kGroups>, count_batch_avx2<4, kGroups>, count_batch_avx2<5, kGroups>,
+           count_batch_avx2<6, kGroups>, count_batch_avx2<7, kGroups>}};
 }
 
 bool has_avx2() { return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma"); }
@@ -213,9 +238,13 @@ bool has_avx2() { return __builtin_cpu_supports("avx2") && __builtin_cpu_support
 }  // namespace
 
 const OctantCounter& octant_counter(const ParticleTemplate& t, SplitPath path) {
-  static const OctantCounter portable{{count_unsplit, count_portable_split<1>, count_portable_split<2>,
-                                       count_portable_split<3>, count_portable_split<4>, count_portable_split<5>,
-                                       count_portable_split<6>, count_portable_split<7>}};
+  static const OctantCounter portable{
+      {count_unsplit, count_portable_split<1>, count_portable_split<2>, count_portable_split<3>,
+       count_portable_split<4>, count_portable_split<5>, count_portable_split<6>, count_portable_split<7>},
+      {count_batch<count_unsplit>, count_batch<count_portable_split<1>>, count_batch<count_portable_split<2>>,
+       count_batch<count_portable_split<3>>, count_batch<count_portable_split<4>>,
+       count_batch<count_portable_split<5>>, count_batch<count_portable_split<6>>,
+       count_batch<count_portable_split<7>>}};
 #ifdef VFE_OCTANT_AVX2
   // Entry g: templates of g groups of eight points (at most 64 points); entry 0: any size.
   static const OctantCounter vector[9] = {vector_counter<0>(), vector_counter<1>(), vector_counter<2>(),

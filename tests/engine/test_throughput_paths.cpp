@@ -25,16 +25,18 @@ void expect_same_field(const std::vector<double>& a, const std::vector<double>& 
     }
 }
 
-/// Spheres of radius r whose template points (orientation=none: the template itself, of
-/// 45 points) lie within 1e-13 of a cell face: centre = face - r q_i (+- 1e-13) along one
-/// axis, the other axes random.
-Particles near_face_spheres(double h, int cells, double r, int count) {
+/// Spheres of radius r whose template points lie within 1e-13 of a cell face: centre =
+/// face - r R q_i (+- 1e-13) along one axis, the other axes random, q_i of the template of
+/// 45 points and R the identity (orientation=none) or, banked, sphere i's rotation from the
+/// bank (orientation=random, seed 0, the key its index).
+Particles near_face_spheres(double h, int cells, double r, int count, bool banked = false) {
   const kernels::ParticleTemplate t = kernels::make_fibonacci_template(45);
-  std::mt19937_64 rng(3);
+  std::mt19937_64 rng(banked ? 4 : 3);
   std::uniform_real_distribution<double> pos(2 * h, (cells - 2) * h);
   Particles p;
   for (int i = 0; i < count; ++i) {
-    const Eigen::Vector3d& q = t.points[static_cast<std::size_t>(i) % t.size()];
+    const Eigen::Vector3d& q0 = t.points[static_cast<std::size_t>(i) % t.size()];
+    const Eigen::Vector3d q = banked ? Eigen::Vector3d(kernels::banked_random_rotation(std::uint64_t(i), 0) * q0) : q0;
     double c[3] = {pos(rng), pos(rng), pos(rng)};
     const int d = i % 3;
     const double face = h * std::round(c[d] / h);
@@ -56,6 +58,8 @@ TEST(PmmCounting, EveryCellEqualsLocatingEverySubElement) {
   cases.push_back({"polydisperse", random_spheres(12, 3000, 1.0, 9.0, 0.15, 0.5), ""});
   cases.push_back({"near faces", near_face_spheres(1.0, 10, 0.25, 3000), " orientation=none particle_grid=45"});
   cases.push_back({"near faces chi 1", near_face_spheres(1.0, 10, 0.5, 3000), " orientation=none particle_grid=45"});
+  cases.push_back({"near faces, banked rotations", near_face_spheres(1.0, 10, 0.25, 3000, true),
+                   " orientation=random seed=0 particle_grid=45"});
   cases.push_back({"beyond the grid", random_spheres(13, 2000, -0.5, 10.5, 0.2, 0.4), " outside=nearest"});
   cases.push_back({"periodic", random_spheres(14, 2000, -0.5, 10.5, 0.2, 0.4), " periodic=xyz"});
   cases.push_back({"block", random_spheres(15, 3000, 1.0, 9.0, 0.15, 0.5), ""});
@@ -71,7 +75,7 @@ TEST(PmmCounting, EveryCellEqualsLocatingEverySubElement) {
     const std::vector<double> b = run(locating, c.p, "method=pmm threads=1 fast_path=0" + c.options);
     const double v = c.p.volume() / double(c.p.radii.size());
     expect_same_field(a, b, 1e-13 * v, c.name);
-    if (c.options.find("orientation=none") != std::string::npos)  // every particle has a point 1e-13 from a face
+    if (std::string(c.name).find("near faces") != std::string::npos)  // every particle has a point 1e-13 from a face
       EXPECT_EQ(counting.last_report_value("counted_particles"), 0.0);
     else
       EXPECT_GT(counting.last_report_value("counted_particles"), 0.3 * double(c.p.radii.size()));

@@ -6,8 +6,10 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <bit>
 #include <random>
+#include <vector>
 
 namespace {
 
@@ -70,6 +72,50 @@ TEST_P(OctantSplitPaths, CountsEqualTheStraightforwardCountOnMillionsOfSubElemen
   // Only the near cases and a few random ones go to double.
   EXPECT_LT(refused, near_cases + cases / 50) << refused << " of " << cases;
   EXPECT_LT(clear_refused, clear_cases / 50) << "points 2e-5 from a plane sent to double";
+}
+
+// A batch of one split set gives what one call per particle gives, refusals included.
+TEST_P(OctantSplitPaths, ABatchEqualsOneCallPerParticle) {
+  std::mt19937_64 rng(8);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  int refused = 0, decided = 0;
+  for (const int n : {7, 35, 64, 130}) {
+    ParticleTemplate t = vfe::kernels::make_fibonacci_template(n);
+    vfe::kernels::prepare_octant_split(t);
+    const vfe::kernels::OctantCounter& counter = vfe::kernels::octant_counter(t, GetParam());
+    for (unsigned split = 0; split < 8; ++split) {
+      constexpr std::size_t kBatch = 40;
+      std::vector<std::array<float, 9>> rows(kBatch);
+      std::vector<vfe::kernels::OctantQuery> queries(kBatch);
+      for (std::size_t k = 0; k < kBatch; ++k) {
+        const Eigen::Matrix3d R = vfe::kernels::random_rotation(k, split);
+        vfe::kernels::rotation_rows(R, rows[k].data());
+        queries[k].rows = rows[k].data();
+        for (int d = 0; d < 3; ++d) queries[k].tau[d] = static_cast<float>(0.9 * u(rng));
+        // Every third particle has a point on its first split plane: refused.
+        if (split && k % 3 == 0) {
+          const int d = std::countr_zero(split);
+          queries[k].tau[d] = static_cast<float>(R.row(d).dot(t.points[k % t.size()]));
+        }
+      }
+      std::vector<std::int32_t> counts(8 * kBatch, -1);
+      std::vector<std::uint8_t> ok(kBatch, 2);
+      counter.batch_by_split[split](t, queries.data(), kBatch, counts.data(), ok.data());
+      for (std::size_t k = 0; k < kBatch; ++k) {
+        std::int32_t one[8];
+        const bool single = counter.by_split[split](t, queries[k].rows, queries[k].tau, one);
+        ASSERT_EQ(ok[k], single ? 1 : 0) << "n " << n << " split " << split << " particle " << k;
+        if (!single) {
+          ++refused;
+          continue;
+        }
+        ++decided;
+        for (int o = 0; o < 8; ++o) ASSERT_EQ(counts[8 * k + o], one[o]) << "n " << n << " split " << split;
+      }
+    }
+  }
+  EXPECT_GT(refused, 100);
+  EXPECT_GT(decided, 500);
 }
 
 INSTANTIATE_TEST_SUITE_P(OctantSplit, OctantSplitPaths,

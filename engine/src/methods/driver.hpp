@@ -414,7 +414,7 @@ class PmmQuick {
   /// 2^31 cells or more along an axis).
   const QuickGrid* window_grid() const { return window_grid_ ? &grid_ : nullptr; }
 
-  /// What finish_window took, tallied over a block and added to the Scratch's counters once
+  /// What finish_chunk took, tallied over a chunk and added to the Scratch's counters once
   /// (commit): counters in memory cost a load and a store per particle around every call.
   struct Tally {
     std::int64_t fast = 0, counted = 0;
@@ -427,26 +427,67 @@ class PmmQuick {
     s.sub_elements += t.counted * single_size_;
   }
 
-  /// operator() for sphere i of a block planned by plan_sphere_windows on window_grid(): its
-  /// volume and rotation key as the Particle's; tallies what it took.
-  template <class Sink>
-  [[gnu::always_inline]] bool finish_window(Tally& tally, const QuickWindows& w, std::int64_t i, double volume,
-                                            std::uint64_t rotation_key, Sink&& sink,
-                                            EmptyOctants empty = EmptyOctants::skip) const {
-    if (w.kind[i] == QuickWindows::fast) {
-      ++tally.fast;
-      sink(w.cell[i], volume);
-      return true;
+  /// The most spheres finish_chunk takes.
+  static constexpr std::int64_t kChunk = 256;
+
+  /// operator() for spheres [0, n) of a chunk (n <= kChunk) planned by plan_sphere_windows
+  /// on window_grid() (block b of windows for spheres [16 b, 16 b + 16)), the counts grouped
+  /// by split axes: in a shuffled stream the counting code and the number of adds change at
+  /// random from one sphere to the next, which the CPU mispredicts; one set of split axes
+  /// after another, they repeat, and one call counts a whole set. Only the order of the adds
+  /// changes. volume(k) and rotation_key(k) of sphere k as its Particle's; taken(k, fast)
+  /// for each sphere added (fast: by the fast path), declined(k) for each of the others.
+  template <class Volume, class Key, class Sink, class Taken, class Declined>
+  void finish_chunk(Tally& tally, const QuickWindows* windows, std::int64_t n, Volume&& volume, Key&& rotation_key,
+                    Sink&& sink, Taken&& taken, Declined&& declined, EmptyOctants empty = EmptyOctants::skip) const {
+    constexpr std::int64_t kBlock = kQuickBlock;
+    std::int64_t first[9] = {};  // counts per split set, then their first slots
+    for (std::int64_t k = 0; k < n; ++k) {
+      const QuickWindows& w = windows[k / kBlock];
+      const std::int64_t i = k % kBlock;
+      if (w.kind[i] == QuickWindows::count) {
+        ++first[w.two[i] + 1];
+      } else if (w.kind[i] == QuickWindows::fast) {
+        ++tally.fast;
+        sink(w.cell[i], volume(k));
+        taken(k, true);
+      } else {
+        declined(k);
+      }
     }
-    if (w.kind[i] != QuickWindows::count) return false;
-    const float tau[3] = {w.tau[0][i], w.tau[1][i], w.tau[2][i]};
-    std::int32_t counts[8];
-    if (!counter_->by_split[w.two[i]](*single_, bank_rows_ + 9 * kernels::rotation_bank_slot(rotation_key, seed_),
-                                      tau, counts))
-      return false;
-    ++tally.counted;
-    add_octants(counts, static_cast<unsigned>(w.two[i]), w.cell[i], volume * single_->fractions[0], sink, empty);
-    return true;
+    for (int split = 1; split < 8; ++split) first[split + 1] += first[split];
+    std::int64_t next[8];
+    std::copy(first, first + 8, next);
+    std::uint16_t sphere[kChunk];
+    kernels::OctantQuery query[kChunk];
+    for (std::int64_t k = 0; k < n; ++k) {
+      const QuickWindows& w = windows[k / kBlock];
+      const std::int64_t i = k % kBlock;
+      if (w.kind[i] != QuickWindows::count) continue;
+      const std::int64_t slot = next[w.two[i]]++;
+      sphere[slot] = static_cast<std::uint16_t>(k);
+      query[slot] = {bank_rows_ + 9 * kernels::rotation_bank_slot(rotation_key(k), seed_),
+                     {w.tau[0][i], w.tau[1][i], w.tau[2][i]}};
+    }
+    std::int32_t counts[8 * kChunk];
+    std::uint8_t decided[kChunk];
+    const double fraction = single_->fractions[0];
+    for (unsigned split = 1; split < 8; ++split) {
+      const std::int64_t begin = first[split], end = first[split + 1];
+      if (begin == end) continue;
+      counter_->batch_by_split[split](*single_, query + begin, static_cast<std::size_t>(end - begin),
+                                      counts + 8 * begin, decided + begin);
+      for (std::int64_t slot = begin; slot < end; ++slot) {
+        const std::int64_t k = sphere[slot];
+        if (!decided[slot]) {
+          declined(k);
+          continue;
+        }
+        ++tally.counted;
+        add_octants(counts + 8 * slot, split, windows[k / kBlock].cell[k % kBlock], volume(k) * fraction, sink, empty);
+        taken(k, false);
+      }
+    }
   }
 
  private:

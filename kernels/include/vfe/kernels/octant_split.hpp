@@ -11,6 +11,7 @@
 
 #include <Eigen/Core>
 
+#include <cstddef>
 #include <cstdint>
 
 namespace vfe::kernels {
@@ -40,11 +41,25 @@ enum class SplitPath { fastest, portable };
 using OctantCountFn = bool (*)(const ParticleTemplate& t, const float* rows, const float tau[3],
                                std::int32_t counts[8]);
 
+/// One particle of a batch: its rotation as floats row by row (9 values) and its
+/// thresholds (as OctantCountFn's).
+struct OctantQuery {
+  const float* rows;
+  float tau[3];
+};
+
+/// The count for n particles of one set of split axes, one after another in one call:
+/// counts[8 k + o] and decided[k] (1, or 0 where OctantCountFn returns false, counts then
+/// undefined) for queries[k]. The same results as n calls, for less per particle.
+using OctantBatchFn = void (*)(const ParticleTemplate& t, const OctantQuery* queries, std::size_t n,
+                               std::int32_t* counts, std::uint8_t* decided);
+
 /// The counting code per split mask (entry `split`, 1 to 7; entry 0 puts every point in
 /// octant 0) for template t (a template of at most 64 points has code for its size) on a
 /// path; look it up once per template, not per particle.
 struct OctantCounter {
   OctantCountFn by_split[8];
+  OctantBatchFn batch_by_split[8];
 };
 const OctantCounter& octant_counter(const ParticleTemplate& t, SplitPath path = SplitPath::fastest);
 
