@@ -4,7 +4,9 @@
 // per point gives a bit mask over the template, and the sub-elements of each of the eight
 // octants are a popcount of three masks. The comparisons run in float; a point too near a
 // plane for float to decide makes the caller locate that particle in double, so every
-// sub-element lands in the cell the straightforward locate gives it.
+// sub-element lands in the cell the straightforward locate gives it. A template of more
+// than 64 points is kept in groups of eight near one another: a plane that misses a
+// group's bounding ball settles its eight points with one comparison.
 #pragma once
 
 #include <vfe/kernels/particle_template.hpp>
