@@ -48,7 +48,7 @@ void prepare_octant_split(ParticleTemplate& t) {
     if (f != t.fractions[0]) return;
   const std::size_t words = (n + 63) / 64, stride = words * 64;
   // Every point has the same share, so a count does not depend on the points' order: more
-  // than 64 go in groups of eight near one another, whose bounding balls settle most of
+  // than 64 go in groups of eight near one another, whose bounding boxes settle most of
   // them at once.
   std::vector<std::size_t> order(n);
   for (std::size_t s = 0; s < n; ++s) order[s] = s;
@@ -58,28 +58,30 @@ void prepare_octant_split(ParticleTemplate& t) {
   // is a power of two, so it changes no rounding.
   t.split_points.assign(3 * stride, 0.0f);
   for (std::size_t s = 0; s < n; ++s)
-    for (int d = 0; d < 3; ++d) t.split_points[d * stride + s] = static_cast<float>(kSplitScale * t.points[order[s]][d]);
+    for (int d = 0; d < 3; ++d)
+      t.split_points[d * stride + s] = static_cast<float>(kSplitScale * t.points[order[s]][d]);
   t.split_words = words;
   if (words == 1) return;
-  // Each group's ball: the centre of its box, the radius the farthest point's distance
-  // (from the float centre, in double) rounded up; padding groups get radius 0 and are masked.
+  // Each group's box: its centre as floats, and per axis the farthest float point's distance
+  // from that centre (in double) rounded up; padding groups get zeros and are masked.
   const std::size_t gstride = words * 8;
-  t.split_groups.assign(4 * gstride, 0.0f);
+  t.split_groups.assign(6 * gstride, 0.0f);
   for (std::size_t g = 0; 8 * g < n; ++g) {
+    const std::size_t end = std::min(n, 8 * g + 8);
     Eigen::Vector3d lo = t.points[order[8 * g]], hi = lo;
-    for (std::size_t s = 8 * g; s < std::min(n, 8 * g + 8); ++s) {
+    for (std::size_t s = 8 * g; s < end; ++s) {
       lo = lo.cwiseMin(t.points[order[s]]);
       hi = hi.cwiseMax(t.points[order[s]]);
     }
-    Eigen::Vector3d c;
     for (int d = 0; d < 3; ++d) {
-      t.split_groups[d * gstride + g] = static_cast<float>(kSplitScale * 0.5 * (lo[d] + hi[d]));
-      c[d] = double(t.split_groups[d * gstride + g]);
+      const float c = static_cast<float>(kSplitScale * 0.5 * (lo[d] + hi[d]));
+      double half = 0;
+      for (std::size_t s = 8 * g; s < end; ++s)
+        half = std::max(half, std::abs(double(t.split_points[d * stride + s]) - c));
+      t.split_groups[d * gstride + g] = c;
+      t.split_groups[(3 + d) * gstride + g] =
+          std::nextafter(static_cast<float>(half), std::numeric_limits<float>::max());
     }
-    double radius = 0;
-    for (std::size_t s = 8 * g; s < std::min(n, 8 * g + 8); ++s)
-      radius = std::max(radius, (kSplitScale * t.points[order[s]] - c).norm());
-    t.split_groups[3 * gstride + g] = std::nextafter(static_cast<float>(radius), std::numeric_limits<float>::max());
   }
 }
 
@@ -282,12 +284,13 @@ constexpr auto kCrossedGroups = [] {
   return m;
 }();
 
-/// count_avx2 for more than 64 points (split_groups): per split axis, the balls of eight
-/// groups at a time against the plane. A group whose ball the plane misses by more than two
+/// count_avx2 for more than 64 points (split_groups): per split axis, the boxes of eight
+/// groups at a time against the plane. A group whose box the plane misses by more than two
 /// guard bands (1 in scaled units; float's error on the distance is below 0.05 there) lies
 /// on one side whole, none of its points near; only the groups the plane crosses are
 /// compared point by point, as count_avx2 does. The same counts and refusals as comparing
-/// every point; for the 860 points of chi = 1, about a third of the groups cross a plane.
+/// every point; for the 860 points of chi = 1, under a quarter of the groups cross a plane
+/// (OctantSplit.GroupsOfALargeTemplateAreCompact).
 template <unsigned kSplit>
 [[gnu::always_inline]] inline __attribute__((target("avx2,fma,popcnt"))) bool count_grouped_body(
     const ParticleTemplate& t, const float* rows, const float tau[3], std::int32_t counts[8]) {
@@ -302,11 +305,13 @@ template <unsigned kSplit>
   const float* cx = t.split_groups.data();
   const float* cy = cx + gstride;
   const float* cz = cy + gstride;
-  const float* radius = cz + gstride;
+  const float* hx = cz + gstride;
+  const float* hy = hx + gstride;
+  const float* hz = hy + gstride;
   const int last_points = static_cast<int>(n - 8 * (groups - 1));  // 1 to 8
-  const __m256i last_padding =
-      _mm256_and_si256(_mm256_set1_epi32(std::numeric_limits<std::int32_t>::min()),
-                       _mm256_cmpgt_epi32(_mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), _mm256_set1_epi32(last_points - 1)));
+  const __m256i last_padding = _mm256_and_si256(
+      _mm256_set1_epi32(std::numeric_limits<std::int32_t>::min()),
+      _mm256_cmpgt_epi32(_mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), _mm256_set1_epi32(last_points - 1)));
   const unsigned last_groups = static_cast<unsigned>((std::uint64_t(1) << (groups - 8 * (words - 1))) - 1);
   const __m256 margin = _mm256_set1_ps(1.0f), zero = _mm256_setzero_ps();
   __m256i near = _mm256_setzero_si256();
@@ -318,13 +323,18 @@ template <unsigned kSplit>
     std::size_t count = 0;
     const float* r = rows + 3 * axis[a];
     const __m256 r0 = _mm256_set1_ps(r[0]), r1 = _mm256_set1_ps(r[1]), r2 = _mm256_set1_ps(r[2]);
+    const __m256 a0 = _mm256_set1_ps(std::fabs(r[0])), a1 = _mm256_set1_ps(std::fabs(r[1])),
+                 a2 = _mm256_set1_ps(std::fabs(r[2]));
     const __m256 shift = _mm256_set1_ps(tau[axis[a]] * -static_cast<float>(kSplitScale));
     for (std::size_t w = 0; w < words; ++w) {
       const std::size_t g0 = 8 * w;
       const __m256 centre = _mm256_fmadd_ps(
           r2, _mm256_loadu_ps(cz + g0),
           _mm256_fmadd_ps(r1, _mm256_loadu_ps(cy + g0), _mm256_fmadd_ps(r0, _mm256_loadu_ps(cx + g0), shift)));
-      const __m256 reach = _mm256_add_ps(_mm256_loadu_ps(radius + g0), margin);
+      // |n . (q - c)| <= sum_i |n_i| |q_i - c_i|: the box's reach along the plane's normal.
+      const __m256 reach = _mm256_fmadd_ps(
+          a2, _mm256_loadu_ps(hz + g0),
+          _mm256_fmadd_ps(a1, _mm256_loadu_ps(hy + g0), _mm256_fmadd_ps(a0, _mm256_loadu_ps(hx + g0), margin)));
       const unsigned valid = w + 1 == words ? last_groups : 0xFFu;
       const unsigned whole_above =
           static_cast<unsigned>(_mm256_movemask_ps(_mm256_cmp_ps(centre, reach, _CMP_GT_OQ))) & valid;

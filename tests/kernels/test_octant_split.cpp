@@ -8,6 +8,7 @@
 
 #include <array>
 #include <bit>
+#include <cmath>
 #include <random>
 #include <vector>
 
@@ -120,6 +121,40 @@ TEST_P(OctantSplitPaths, ABatchEqualsOneCallPerParticle) {
 
 INSTANTIATE_TEST_SUITE_P(OctantSplit, OctantSplitPaths,
                          ::testing::Values(vfe::kernels::SplitPath::fastest, vfe::kernels::SplitPath::portable));
+
+// The groups of a large template hold points near one another: their boxes contain their
+// points, and a plane through the template at a random offset and direction crosses few
+// of them (in the template's own order, groups of eight would span the sphere).
+TEST(OctantSplit, GroupsOfALargeTemplateAreCompact) {
+  for (const int n : {130, 860}) {
+    ParticleTemplate t = vfe::kernels::make_fibonacci_template(n);
+    vfe::kernels::prepare_octant_split(t);
+    const std::size_t stride = t.split_words * 64, gstride = t.split_words * 8, groups = (t.size() + 7) / 8;
+    ASSERT_EQ(t.split_groups.size(), 6 * gstride);
+    for (std::size_t s = 0; s < t.size(); ++s)
+      for (int d = 0; d < 3; ++d) {
+        const double x = t.split_points[d * stride + s], c = t.split_groups[d * gstride + s / 8];
+        ASSERT_LE(std::abs(x - c), t.split_groups[(3 + d) * gstride + s / 8]) << "n " << n << " point " << s;
+      }
+    std::mt19937_64 rng(9);
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    double crossed = 0, tested = 0;
+    for (int c = 0; c < 2000; ++c) {
+      const Eigen::Vector3d normal = vfe::kernels::random_rotation(std::uint64_t(c), 5).row(0);
+      const double offset = vfe::kernels::kSplitScale * t.reach * u(rng);
+      for (std::size_t g = 0; g < groups; ++g) {
+        double centre = -offset, reach = 0;
+        for (int d = 0; d < 3; ++d) {
+          centre += normal[d] * t.split_groups[d * gstride + g];
+          reach += std::abs(normal[d]) * t.split_groups[(3 + d) * gstride + g];
+        }
+        crossed += std::abs(centre) <= reach;
+        ++tested;
+      }
+    }
+    EXPECT_LT(crossed / tested, n > 500 ? 0.25 : 0.45) << "n " << n;
+  }
+}
 
 TEST(OctantSplit, NoSplitPutsEveryPointInTheFirstOctant) {
   ParticleTemplate t = vfe::kernels::make_fibonacci_template(100);
