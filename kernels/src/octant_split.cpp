@@ -319,6 +319,7 @@ template <unsigned kSplit>
   std::uint16_t crossed[kMaxSplitWords * 8 + 8];  // groups a plane crosses (8 spare: whole stores)
   std::uint8_t crossed_in[kMaxSplitWords];        // per word, its crossed groups
   std::uint8_t group_above[kMaxSplitWords * 8];   // per crossed group, its points above
+  std::memset(group_above, 0, 8 * words);          // read whole words, masked to the crossed groups
   for (int a = 0; a < kAxes; ++a) {
     std::size_t count = 0;
     const float* r = rows + 3 * axis[a];
@@ -364,7 +365,7 @@ template <unsigned kSplit>
     for (std::size_t w = 0; w < words; ++w) {
       std::uint64_t bytes;
       std::memcpy(&bytes, group_above + 8 * w, sizeof bytes);
-      above[a][w] |= bytes & kGroupBytes[crossed_in[w]];  // the bytes of groups not crossed were not written
+      above[a][w] |= bytes & kGroupBytes[crossed_in[w]];  // groups not crossed hold another axis's bytes
     }
   }
   if (!_mm256_testz_si256(near, near)) return false;
