@@ -455,7 +455,7 @@ class PmmQuick {
         declined(k);
       }
     }
-    for (int split = 1; split < 8; ++split) first[split + 1] += first[split];
+    for (int split = 0; split < 8; ++split) first[split + 1] += first[split];
     std::int64_t next[8];
     std::copy(first, first + 8, next);
     std::uint16_t sphere[kChunk];
@@ -472,7 +472,7 @@ class PmmQuick {
     std::int32_t counts[8 * kChunk];
     std::uint8_t decided[kChunk];
     const double fraction = single_->fractions[0];
-    for (unsigned split = 1; split < 8; ++split) {
+    for (unsigned split = 0; split < 8; ++split) {  // a count has a split axis: set 0 stays empty
       const std::int64_t begin = first[split], end = first[split + 1];
       if (begin == end) continue;
       counter_->batch_by_split[split](*single_, query + begin, static_cast<std::size_t>(end - begin),
