@@ -188,6 +188,39 @@ template <unsigned kSplit>
 }
 
 #ifdef VFE_OCTANT_AVX2
+/// The lanes of the last group of eight points that lie beyond the template's n points
+/// (groups of eight in all): the sign bit, or-ed into their scaled distances after the
+/// conversion, makes them below every plane and never in the guard band; 0 elsewhere.
+[[gnu::always_inline]] inline __attribute__((target("avx2"))) __m256i last_group_padding(std::size_t n,
+                                                                                       std::size_t groups) {
+  const int last_points = static_cast<int>(n - 8 * (groups - 1));  // 1 to 8
+  return _mm256_and_si256(
+      _mm256_set1_epi32(std::numeric_limits<std::int32_t>::min()),
+      _mm256_cmpgt_epi32(_mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), _mm256_set1_epi32(last_points - 1)));
+}
+
+/// Adds to P[S], for each set S of split axes, the points of one word above every plane of
+/// S: above[a * stride] the word's mask of split axis a (in increasing axis order), valid
+/// the word's points.
+template <unsigned kSplit>
+[[gnu::always_inline]] inline __attribute__((target("popcnt"))) void add_points_above(std::int32_t P[8],
+                                                                                    const std::uint64_t* above,
+                                                                                    std::size_t stride,
+                                                                                    std::uint64_t valid) {
+  constexpr int kAxes = std::popcount(kSplit);
+  constexpr unsigned kRest = kSplit & (kSplit - 1);
+  constexpr int axis[3] = {std::countr_zero(kSplit), std::countr_zero(kRest), std::countr_zero(kRest & (kRest - 1))};
+#pragma GCC unroll 8
+  for (unsigned S = 1; S < 8; ++S) {
+    if (S & ~kSplit) continue;
+    std::uint64_t all = valid;
+#pragma GCC unroll 3
+    for (int a = 0; a < kAxes; ++a)
+      if ((S >> axis[a]) & 1u) all &= above[a * stride];
+    P[S] += static_cast<std::int32_t>(_mm_popcnt_u64(all));
+  }
+}
+
 /// Per split axis d the scaled distance k = round(kSplitScale (R_d . q - tau_d)) of each
 /// point as an integer (the points are stored scaled): k = 0 is a point within the guard
 /// band (the particle goes to double), k > 0 above, k < 0 below (the padding of the last
@@ -217,9 +250,7 @@ template <unsigned kSplit, std::size_t kGroups>
   const float* y = x + stride;
   const float* z = y + stride;
   const __m256i below_all = _mm256_set1_epi32(std::numeric_limits<std::int32_t>::min());
-  const int last_points = static_cast<int>(n - 8 * (groups - 1));  // 1 to 8
-  const __m256i last_padding = _mm256_and_si256(
-      below_all, _mm256_cmpgt_epi32(_mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), _mm256_set1_epi32(last_points - 1)));
+  const __m256i last_padding = last_group_padding(n, groups);
   __m256i near = _mm256_setzero_si256();
   std::int32_t P[8] = {};
   P[0] = static_cast<std::int32_t>(n);
@@ -249,15 +280,7 @@ template <unsigned kSplit, std::size_t kGroups>
       above[a] |= std::uint64_t(~static_cast<std::uint32_t>(_mm256_movemask_epi8(bytes))) << (32 * half);
     }
   }
-#pragma GCC unroll 8
-  for (unsigned S = 1; S < 8; ++S) {
-    if (S & ~kSplit) continue;
-    std::uint64_t all = ~std::uint64_t(0);
-#pragma GCC unroll 3
-    for (int a = 0; a < kAxes; ++a)
-      if ((S >> axis[a]) & 1u) all &= above[a];
-    P[S] += static_cast<std::int32_t>(_mm_popcnt_u64(all));
-  }
+  add_points_above<kSplit>(P, above, 1, ~std::uint64_t(0));  // the padding is below every plane
   if (!_mm256_testz_si256(near, near)) return false;
   counts_from_above<kSplit>(P, counts);
   return true;
@@ -308,10 +331,7 @@ template <unsigned kSplit>
   const float* hx = cz + gstride;
   const float* hy = hx + gstride;
   const float* hz = hy + gstride;
-  const int last_points = static_cast<int>(n - 8 * (groups - 1));  // 1 to 8
-  const __m256i last_padding = _mm256_and_si256(
-      _mm256_set1_epi32(std::numeric_limits<std::int32_t>::min()),
-      _mm256_cmpgt_epi32(_mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), _mm256_set1_epi32(last_points - 1)));
+  const __m256i last_padding = last_group_padding(n, groups);
   const unsigned last_groups = static_cast<unsigned>((std::uint64_t(1) << (groups - 8 * (words - 1))) - 1);
   const __m256 margin = _mm256_set1_ps(1.0f), zero = _mm256_setzero_ps();
   __m256i near = _mm256_setzero_si256();
@@ -371,64 +391,43 @@ template <unsigned kSplit>
   if (!_mm256_testz_si256(near, near)) return false;
   std::int32_t P[8] = {};
   P[0] = static_cast<std::int32_t>(n);
-  for (std::size_t w = 0; w < words; ++w) {
-    const std::uint64_t valid = valid_bits(t, w);
-#pragma GCC unroll 8
-    for (unsigned S = 1; S < 8; ++S) {
-      if (S & ~kSplit) continue;
-      std::uint64_t all = valid;
-#pragma GCC unroll 3
-      for (int a = 0; a < kAxes; ++a)
-        if ((S >> axis[a]) & 1u) all &= above[a][w];
-      P[S] += static_cast<std::int32_t>(_mm_popcnt_u64(all));
-    }
-  }
+  for (std::size_t w = 0; w < words; ++w) add_points_above<kSplit>(P, &above[0][w], kMaxSplitWords, valid_bits(t, w));
   counts_from_above<kSplit>(P, counts);
   return true;
 }
 
-template <unsigned kSplit>
-__attribute__((target("avx2,fma,popcnt"))) bool count_grouped(const ParticleTemplate& t, const float* rows,
-                                                            const float tau[3], std::int32_t counts[8]) {
-  return count_grouped_body<kSplit>(t, rows, tau, counts);
+/// One particle's count by a counting body, and a batch by the same body in one loop (the
+/// body is inlined into both).
+template <auto kBody>
+__attribute__((target("avx2,fma,popcnt"))) bool count_one_avx2(const ParticleTemplate& t, const float* rows,
+                                                              const float tau[3], std::int32_t counts[8]) {
+  return kBody(t, rows, tau, counts);
 }
 
-template <unsigned kSplit>
-__attribute__((target("avx2,fma,popcnt"))) void count_batch_grouped(const ParticleTemplate& t,
-                                                                  const OctantQuery* queries, std::size_t n,
-                                                                  std::int32_t* counts, std::uint8_t* decided) {
-  for (std::size_t k = 0; k < n; ++k)
-    decided[k] = count_grouped_body<kSplit>(t, queries[k].rows, queries[k].tau, counts + 8 * k);
-}
-
-constexpr OctantCounter grouped_counter() {
-  return {{count_unsplit, count_grouped<1>, count_grouped<2>, count_grouped<3>, count_grouped<4>, count_grouped<5>,
-           count_grouped<6>, count_grouped<7>},
-          {count_batch<count_unsplit>, count_batch_grouped<1>, count_batch_grouped<2>, count_batch_grouped<3>,
-           count_batch_grouped<4>, count_batch_grouped<5>, count_batch_grouped<6>, count_batch_grouped<7>}};
-}
-
-template <unsigned kSplit, std::size_t kGroups>
-__attribute__((target("avx2,fma,popcnt"))) bool count_avx2(const ParticleTemplate& t, const float* rows,
-                                                         const float tau[3], std::int32_t counts[8]) {
-  return count_avx2_body<kSplit, kGroups>(t, rows, tau, counts);
-}
-
-template <unsigned kSplit, std::size_t kGroups>
+template <auto kBody>
 __attribute__((target("avx2,fma,popcnt"))) void count_batch_avx2(const ParticleTemplate& t,
                                                                const OctantQuery* queries, std::size_t n,
                                                                std::int32_t* counts, std::uint8_t* decided) {
-  for (std::size_t k = 0; k < n; ++k)
-    decided[k] = count_avx2_body<kSplit, kGroups>(t, queries[k].rows, queries[k].tau, counts + 8 * k);
+  for (std::size_t k = 0; k < n; ++k) decided[k] = kBody(t, queries[k].rows, queries[k].tau, counts + 8 * k);
 }
 
-template <std::size_t kGroups>
+/// The counter whose split sets 1 to 7 take these bodies.
+template <auto... kBodies>
 constexpr OctantCounter vector_counter() {
-  return {{count_unsplit, count_avx2<1, kGroups>, count_avx2<2, kGroups>, count_avx2<3, kGroups>,
-           count_avx2<4, kGroups>, count_avx2<5, kGroups>, count_avx2<6, kGroups>, count_avx2<7, kGroups>},
-          {count_batch<count_unsplit>, count_batch_avx2<1, kGroups>, count_batch_avx2<2, kGroups>,
-           count_batch_avx2<3, kGroups>, count_batch_avx2<4, kGroups>, count_batch_avx2<5, kGroups>,
-           count_batch_avx2<6, kGroups>, count_batch_avx2<7, kGroups>}};
+  return {{count_unsplit, count_one_avx2<kBodies>...}, {count_batch<count_unsplit>, count_batch_avx2<kBodies>...}};
+}
+
+/// Templates of kGroups groups of eight points (at most 64), or of more (kGroups = 0: in
+/// groups with their boxes).
+template <std::size_t kGroups>
+constexpr OctantCounter sized_counter() {
+  if constexpr (kGroups == 0)
+    return vector_counter<count_grouped_body<1>, count_grouped_body<2>, count_grouped_body<3>, count_grouped_body<4>,
+                          count_grouped_body<5>, count_grouped_body<6>, count_grouped_body<7>>();
+  else
+    return vector_counter<count_avx2_body<1, kGroups>, count_avx2_body<2, kGroups>, count_avx2_body<3, kGroups>,
+                          count_avx2_body<4, kGroups>, count_avx2_body<5, kGroups>, count_avx2_body<6, kGroups>,
+                          count_avx2_body<7, kGroups>>();
 }
 
 bool has_avx2() { return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma"); }
@@ -446,9 +445,9 @@ const OctantCounter& octant_counter(const ParticleTemplate& t, SplitPath path) {
        count_batch<count_portable_split<7>>}};
 #ifdef VFE_OCTANT_AVX2
   // Entry g: templates of g groups of eight points (at most 64 points); entry 0: more (in groups).
-  static const OctantCounter vector[9] = {grouped_counter(), vector_counter<1>(), vector_counter<2>(),
-                                          vector_counter<3>(), vector_counter<4>(), vector_counter<5>(),
-                                          vector_counter<6>(), vector_counter<7>(), vector_counter<8>()};
+  static const OctantCounter vector[9] = {sized_counter<0>(), sized_counter<1>(), sized_counter<2>(),
+                                          sized_counter<3>(), sized_counter<4>(), sized_counter<5>(),
+                                          sized_counter<6>(), sized_counter<7>(), sized_counter<8>()};
   static const bool avx2 = has_avx2();
   if (path == SplitPath::fastest && avx2) return vector[t.split_words == 1 ? (t.size() + 7) / 8 : 0];
 #endif
