@@ -59,19 +59,22 @@ template <bool kPacked>
   rad = v4d{read_double(r), read_double(r + j1 * rs), read_double(r + j2 * rs), read_double(r + j3 * rs)};
 }
 
-/// Asks for the four spheres kAhead ahead of those at c and r (past the end is harmless):
-/// this machine's hardware prefetcher does not follow the particle stream, and 16 ahead
-/// (0.4 KB) was too short for direct's pass (docs/performance.md).
-template <bool kPacked, int kAhead = 64>
+/// How many spheres ahead the passes ask for the particle stream: this machine's hardware
+/// prefetcher does not follow it, and 16 ahead (0.4 KB) was too short for direct's pass
+/// (docs/performance.md, "pmm's counts by sets of split axes").
+inline constexpr int kPrefetchAhead = 64;
+
+/// Asks for the four spheres kPrefetchAhead ahead of those at c and r (past the end is harmless).
+template <bool kPacked>
 [[gnu::always_inline]] inline void prefetch_spheres(const char* c, const char* r, std::int64_t cs, std::int64_t rs) {
   if constexpr (kPacked) {
-    __builtin_prefetch(c + kAhead * 24);
-    __builtin_prefetch(c + kAhead * 24 + 64);
-    __builtin_prefetch(r + kAhead * 8);
+    __builtin_prefetch(c + kPrefetchAhead * 24);
+    __builtin_prefetch(c + kPrefetchAhead * 24 + 64);
+    __builtin_prefetch(r + kPrefetchAhead * 8);
   } else {
     for (int l = 0; l < 4; ++l) {
-      __builtin_prefetch(c + (kAhead + l) * cs);
-      __builtin_prefetch(r + (kAhead + l) * rs);
+      __builtin_prefetch(c + (kPrefetchAhead + l) * cs);
+      __builtin_prefetch(r + (kPrefetchAhead + l) * rs);
     }
   }
 }
