@@ -6,7 +6,7 @@
 // plane for float to decide makes the caller locate that particle in double, so every
 // sub-element lands in the cell the straightforward locate gives it. A template of more
 // than 64 points is kept in groups of eight near one another: a plane that misses a
-// group's bounding box settles its eight points with one comparison.
+// group's bounding ball settles its eight points with one comparison.
 #pragma once
 
 #include <vfe/kernels/particle_template.hpp>
