@@ -343,11 +343,12 @@ template <unsigned kSplit>
   const unsigned last_groups = static_cast<unsigned>((std::uint64_t(1) << (groups - 8 * (words - 1))) - 1);
   const __m256 margin = _mm256_set1_ps(1.0f), zero = _mm256_setzero_ps();
   __m256i near = _mm256_setzero_si256();
-  std::uint64_t above[kAxes][kMaxSplitWords];
+  // Per split axis and word, its points above the plane: first the groups wholly above as
+  // whole bytes, then a byte per crossed group stored over its zero byte. Each axis has its
+  // own words and all are read after the last axis, when the byte stores are long done (a
+  // word read right after its bytes were stored waits for them: they cannot be forwarded).
+  alignas(8) std::uint8_t above[kAxes][kMaxSplitWords * 8];
   std::uint16_t crossed[kMaxSplitWords * 8 + 8];  // groups a plane crosses (8 spare: whole stores)
-  std::uint8_t crossed_in[kMaxSplitWords];        // per word, its crossed groups
-  std::uint8_t group_above[kMaxSplitWords * 8];   // per crossed group, its points above
-  std::memset(group_above, 0, 8 * words);          // read whole words, masked to the crossed groups
   for (int a = 0; a < kAxes; ++a) {
     std::size_t count = 0;
     const float* r = rows + 3 * axis[a];
@@ -366,8 +367,7 @@ template <unsigned kSplit>
       const unsigned whole_below = static_cast<unsigned>(
           _mm256_movemask_ps(_mm256_cmp_ps(_mm256_add_ps(centre, reach), zero, _CMP_LT_OQ)));
       const unsigned cross = ~(whole_above | whole_below) & valid;
-      above[a][w] = kGroupBytes[whole_above];
-      crossed_in[w] = static_cast<std::uint8_t>(cross);
+      std::memcpy(above[a] + g0, &kGroupBytes[whole_above], sizeof(std::uint64_t));
       // The crossed groups' numbers appended without a branch (a loop over the bits of each
       // word would mispredict its end in nearly every word).
       const __m128i numbers = _mm_add_epi16(_mm_cvtepu8_epi16(_mm_loadl_epi64(
@@ -378,23 +378,21 @@ template <unsigned kSplit>
     }
     for (std::size_t i = 0; i < count; ++i) {
       const std::size_t g = crossed[i], s = 8 * g;
-      __m256i k = _mm256_cvtps_epi32(_mm256_fmadd_ps(
+      const __m256i k = _mm256_cvtps_epi32(_mm256_fmadd_ps(
           r2, _mm256_loadu_ps(z + s),
           _mm256_fmadd_ps(r1, _mm256_loadu_ps(y + s), _mm256_fmadd_ps(r0, _mm256_loadu_ps(x + s), shift))));
       near = _mm256_or_si256(near, _mm256_cmpeq_epi32(k, _mm256_setzero_si256()));
-      // A byte per group: or-ing into the word would chain the groups of a word through memory.
-      group_above[g] = static_cast<std::uint8_t>(~_mm256_movemask_ps(_mm256_castsi256_ps(k)));
-    }
-    for (std::size_t w = 0; w < words; ++w) {
-      std::uint64_t bytes;
-      std::memcpy(&bytes, group_above + 8 * w, sizeof bytes);
-      above[a][w] |= bytes & kGroupBytes[crossed_in[w]];  // groups not crossed hold another axis's bytes
+      above[a][g] = static_cast<std::uint8_t>(~_mm256_movemask_ps(_mm256_castsi256_ps(k)));
     }
   }
   if (!_mm256_testz_si256(near, near)) return false;
   std::int32_t P[8] = {};
   P[0] = static_cast<std::int32_t>(n);
-  for (std::size_t w = 0; w < words; ++w) add_points_above<kSplit>(P, &above[0][w], kMaxSplitWords, valid_bits(t, w));
+  for (std::size_t w = 0; w < words; ++w) {
+    std::uint64_t word[kAxes];
+    for (int a = 0; a < kAxes; ++a) std::memcpy(&word[a], above[a] + 8 * w, sizeof word[a]);
+    add_points_above<kSplit>(P, word, 1, valid_bits(t, w));
+  }
   counts_from_above<kSplit>(P, counts);
   return true;
 }
