@@ -109,17 +109,16 @@ struct SplitMasks {
   std::uint64_t near = 0;  ///< or of all words: any point too near a plane
 };
 
-/// The points of word w that the template holds (the rest is padding).
-std::uint64_t valid_bits(const ParticleTemplate& t, std::size_t w) {
-  const std::size_t n = t.size();
-  return w + 1 == t.split_words && n % 64 ? (std::uint64_t(1) << (n % 64)) - 1 : ~std::uint64_t(0);
+/// The points of word w (of `words`) that a template of n points holds (the rest is padding).
+std::uint64_t valid_bits(std::size_t n, std::size_t words, std::size_t w) {
+  return w + 1 == words && n % 64 ? (std::uint64_t(1) << (n % 64)) - 1 : ~std::uint64_t(0);
 }
 
 /// counts[] from the masks (split axes in increasing order in m.above).
 void counts_from_masks(const ParticleTemplate& t, const SplitMasks& m, unsigned split, std::int32_t counts[8]) {
   for (int o = 0; o < 8; ++o) counts[o] = 0;
   for (std::size_t w = 0; w < t.split_words; ++w) {
-    const std::uint64_t valid = valid_bits(t, w);
+    const std::uint64_t valid = valid_bits(t.size(), t.split_words, w);
     // side[d][b]: the points of this word on side b of axis d (all below for an axis not split).
     std::uint64_t side[3][2];
     int a = 0;
@@ -156,7 +155,7 @@ bool count_portable(const ParticleTemplate& t, const float* rows, const float ta
         near |= std::uint64_t(std::fabs(dot - scale * tau[d]) < guard) << b;
       }
       m.above[a][w] = above;
-      m.near |= near & valid_bits(t, w);
+      m.near |= near & valid_bits(t.size(), words, w);
     }
     ++a;
   }
@@ -203,6 +202,18 @@ template <unsigned kSplit>
 }
 
 #ifdef VFE_OCTANT_AVX2
+/// What the vector bodies read of a template, as values: a batch takes them once. (Read
+/// from the template in the loop they would be loaded again for every particle, since the
+/// batch's store of each decision, through a uint8_t*, could alias them.)
+struct SplitView {
+  const float* points;  ///< split_points
+  const float* groups;  ///< split_groups
+  std::size_t n, words;
+};
+SplitView split_view(const ParticleTemplate& t) {
+  return {t.split_points.data(), t.split_groups.data(), t.size(), t.split_words};
+}
+
 /// The lanes of the last group of eight points that lie beyond the template's n points
 /// (groups of eight in all): the sign bit, or-ed into their scaled distances after the
 /// conversion, makes them below every plane and never in the guard band; 0 elsewhere. For
@@ -250,7 +261,7 @@ template <unsigned kSplit>
 /// unroll into straight code; larger templates take count_grouped_body).
 template <unsigned kSplit, std::size_t kGroups>
 [[gnu::always_inline]] inline __attribute__((target("avx2,fma,popcnt"))) bool count_avx2_body(
-    const ParticleTemplate& t, const float* rows, const float tau[3], std::int32_t counts[8]) {
+    const SplitView& t, const float* rows, const float tau[3], std::int32_t counts[8]) {
   static_assert(kGroups >= 1 && kGroups <= 8);
   constexpr int kAxes = std::popcount(kSplit);
   constexpr unsigned kRest = kSplit & (kSplit - 1);  // the split axes after the first
@@ -262,8 +273,8 @@ template <unsigned kSplit, std::size_t kGroups>
     r0[a] = _mm256_set1_ps(r[0]), r1[a] = _mm256_set1_ps(r[1]), r2[a] = _mm256_set1_ps(r[2]);
     shift[a] = _mm256_set1_ps(tau[axis[a]] * -static_cast<float>(kSplitScale));
   }
-  const std::size_t n = t.size(), stride = 64, groups = kGroups;
-  const float* x = t.split_points.data();
+  const std::size_t n = t.n, stride = 64, groups = kGroups;
+  const float* x = t.points;
   const float* y = x + stride;
   const float* z = y + stride;
   const __m256i below_all = _mm256_set1_epi32(std::numeric_limits<std::int32_t>::min());
@@ -333,16 +344,16 @@ constexpr auto kCrossedGroups = [] {
 /// plane at a random offset (OctantSplit.GroupsOfALargeTemplateAreCompact).
 template <unsigned kSplit>
 [[gnu::always_inline]] inline __attribute__((target("avx2,fma,popcnt"))) bool count_grouped_body(
-    const ParticleTemplate& t, const float* rows, const float tau[3], std::int32_t counts[8]) {
+    const SplitView& t, const float* rows, const float tau[3], std::int32_t counts[8]) {
   constexpr int kAxes = std::popcount(kSplit);
   constexpr unsigned kRest = kSplit & (kSplit - 1);
   constexpr int axis[3] = {std::countr_zero(kSplit), std::countr_zero(kRest), std::countr_zero(kRest & (kRest - 1))};
-  const std::size_t n = t.size(), words = t.split_words, stride = words * 64, gstride = words * 8;
+  const std::size_t n = t.n, words = t.words, stride = words * 64, gstride = words * 8;
   const std::size_t groups = (n + 7) / 8;
-  const float* x = t.split_points.data();
+  const float* x = t.points;
   const float* y = x + stride;
   const float* z = y + stride;
-  const float* cx = t.split_groups.data();
+  const float* cx = t.groups;
   const float* cy = cx + gstride;
   const float* cz = cy + gstride;
   const float* radii = cz + gstride;
@@ -397,7 +408,7 @@ template <unsigned kSplit>
   for (std::size_t w = 0; w < words; ++w) {
     std::uint64_t word[kAxes];
     for (int a = 0; a < kAxes; ++a) std::memcpy(&word[a], above[a] + 8 * w, sizeof word[a]);
-    add_points_above<kSplit>(P, word, 1, valid_bits(t, w));
+    add_points_above<kSplit>(P, word, 1, valid_bits(n, words, w));
   }
   counts_from_above<kSplit>(P, counts);
   return true;
@@ -408,14 +419,15 @@ template <unsigned kSplit>
 template <auto kBody>
 __attribute__((target("avx2,fma,popcnt"))) bool count_one_avx2(const ParticleTemplate& t, const float* rows,
                                                               const float tau[3], std::int32_t counts[8]) {
-  return kBody(t, rows, tau, counts);
+  return kBody(split_view(t), rows, tau, counts);
 }
 
 template <auto kBody>
 __attribute__((target("avx2,fma,popcnt"))) void count_batch_avx2(const ParticleTemplate& t,
                                                                const OctantQuery* queries, std::size_t n,
                                                                std::int32_t* counts, std::uint8_t* decided) {
-  for (std::size_t k = 0; k < n; ++k) decided[k] = kBody(t, queries[k].rows, queries[k].tau, counts + 8 * k);
+  const SplitView view = split_view(t);
+  for (std::size_t k = 0; k < n; ++k) decided[k] = kBody(view, queries[k].rows, queries[k].tau, counts + 8 * k);
 }
 
 /// The counter whose split sets 1 to 7 take these bodies.
