@@ -48,11 +48,12 @@ void prepare_octant_split(ParticleTemplate& t) {
     if (f != t.fractions[0]) return;
   const std::size_t words = (n + 63) / 64, stride = words * 64;
   // Every point has the same share, so a count does not depend on the points' order: more
-  // than 64 go in groups of eight near one another, whose bounding balls settle most of
-  // them at once.
+  // than kMostUngroupedWords x 64 go in groups of eight near one another, whose bounding
+  // balls settle most of them at once.
+  const bool grouped = words > kMostUngroupedWords;
   std::vector<std::size_t> order(n);
   for (std::size_t s = 0; s < n; ++s) order[s] = s;
-  if (words > 1) group_points(t.points, order, 0, n);
+  if (grouped) group_points(t.points, order, 0, n);
   // Padding repeats the last point, masked out of the counts by the counters: a padding
   // lane is near a plane only when that point is, so it never refuses a particle of its own
   // and needs no test (and no NaN: converting or comparing NaN raises the invalid-operation
@@ -63,7 +64,7 @@ void prepare_octant_split(ParticleTemplate& t) {
     for (int d = 0; d < 3; ++d)
       t.split_points[d * stride + s] = static_cast<float>(kSplitScale * t.points[order[std::min(s, n - 1)]][d]);
   t.split_words = words;
-  if (words == 1) return;
+  if (!grouped) return;
   // Each group's ball: a centre near that of the smallest ball holding its points (a few
   // hundred steps of Badoiu and Clarkson's walk towards the farthest point, from the
   // points' mean), as floats, and the farthest float point's distance from it (in double)
@@ -214,18 +215,13 @@ SplitView split_view(const ParticleTemplate& t) {
   return {t.split_points.data(), t.split_groups.data(), t.size(), t.split_words};
 }
 
-/// The lanes of the last group of eight points that lie beyond the template's n points
-/// (groups of eight in all): the sign bit, or-ed into their scaled distances after the
-/// conversion, makes them below every plane and never in the guard band; 0 elsewhere. For
-/// count_avx2_body, whose masks hold the points interleaved: count_grouped_body masks its
-/// words with valid_bits instead.
-[[gnu::always_inline]] inline __attribute__((target("avx2"))) __m256i last_group_padding(std::size_t n,
-                                                                                       std::size_t groups) {
-  const int last_points = static_cast<int>(n - 8 * (groups - 1));  // 1 to 8
-  return _mm256_and_si256(
-      _mm256_set1_epi32(std::numeric_limits<std::int32_t>::min()),
-      _mm256_cmpgt_epi32(_mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), _mm256_set1_epi32(last_points - 1)));
-}
+/// The axes of split set kSplit in increasing order: axis[0] to axis[count - 1].
+template <unsigned kSplit>
+struct SplitAxes {
+  static constexpr int count = std::popcount(kSplit);
+  static constexpr unsigned rest = kSplit & (kSplit - 1);
+  static constexpr int axis[3] = {std::countr_zero(kSplit), std::countr_zero(rest), std::countr_zero(rest & (rest - 1))};
+};
 
 /// Adds to P[S], for each set S of split axes, the points of one word above every plane of
 /// S: above[a * stride] the word's mask of split axis a (in increasing axis order), valid
@@ -235,9 +231,8 @@ template <unsigned kSplit>
                                                                                     const std::uint64_t* above,
                                                                                     std::size_t stride,
                                                                                     std::uint64_t valid) {
-  constexpr int kAxes = std::popcount(kSplit);
-  constexpr unsigned kRest = kSplit & (kSplit - 1);
-  constexpr int axis[3] = {std::countr_zero(kSplit), std::countr_zero(kRest), std::countr_zero(kRest & (kRest - 1))};
+  constexpr int kAxes = SplitAxes<kSplit>::count;
+  constexpr const int(&axis)[3] = SplitAxes<kSplit>::axis;
 #pragma GCC unroll 8
   for (unsigned S = 1; S < 8; ++S) {
     if (S & ~kSplit) continue;
@@ -249,23 +244,33 @@ template <unsigned kSplit>
   }
 }
 
+/// Entry m (1 to 64): the mask of the first m points of a word in count_avx2_body's
+/// interleaved order (bit 32 h + 16 l + 4 g + i holds point 32 h + 8 g + 4 l + i).
+constexpr auto kInterleavedValid = [] {
+  std::array<std::uint64_t, 65> m{};
+  for (unsigned count = 1; count <= 64; ++count)
+    for (unsigned p = 0; p < count; ++p) {
+      const unsigned h = p / 32, g = (p % 32) / 8, l = (p % 8) / 4, i = p % 4;
+      m[count] |= std::uint64_t(1) << (32 * h + 16 * l + 4 * g + i);
+    }
+  return m;
+}();
+
 /// Per split axis d the scaled distance k = round(kSplitScale (R_d . q - tau_d)) of each
 /// point as an integer (the points are stored scaled): k = 0 is a point within the guard
-/// band (the particle goes to double), k > 0 above, k < 0 below (the padding of the last
-/// group gets its sign bit set: below, never in the band). Four groups of eight points
+/// band (the particle goes to double), k > 0 above, k < 0 below. Four groups of eight points
 /// pack with saturation (which keeps sign and zero) into 32 bytes, whose sign bits are one
 /// movemask: 32 points per axis in a few instructions. The packs interleave the points in a
 /// fixed order, the same for every axis, and a count of "above on every axis of a set" does
-/// not depend on the order.
+/// not depend on the order (kInterleavedValid masks the padding in that order).
 /// kGroups: the template's groups of eight points, 1 to 8 (at most 64 points: the loops
-/// unroll into straight code; larger templates take count_grouped_body).
+/// unroll into straight code; larger templates take count_plain_body or count_grouped_body).
 template <unsigned kSplit, std::size_t kGroups>
 [[gnu::always_inline]] inline __attribute__((target("avx2,fma,popcnt"))) bool count_avx2_body(
     const SplitView& t, const float* rows, const float tau[3], std::int32_t counts[8]) {
   static_assert(kGroups >= 1 && kGroups <= 8);
-  constexpr int kAxes = std::popcount(kSplit);
-  constexpr unsigned kRest = kSplit & (kSplit - 1);  // the split axes after the first
-  constexpr int axis[3] = {std::countr_zero(kSplit), std::countr_zero(kRest), std::countr_zero(kRest & (kRest - 1))};
+  constexpr int kAxes = SplitAxes<kSplit>::count;
+  constexpr const int(&axis)[3] = SplitAxes<kSplit>::axis;
   __m256 r0[kAxes], r1[kAxes], r2[kAxes], shift[kAxes];
 #pragma GCC unroll 3
   for (int a = 0; a < kAxes; ++a) {
@@ -278,7 +283,6 @@ template <unsigned kSplit, std::size_t kGroups>
   const float* y = x + stride;
   const float* z = y + stride;
   const __m256i below_all = _mm256_set1_epi32(std::numeric_limits<std::int32_t>::min());
-  const __m256i last_padding = last_group_padding(n, groups);
   __m256i near = _mm256_setzero_si256();
   std::int32_t P[8] = {};
   P[0] = static_cast<std::int32_t>(n);
@@ -301,14 +305,13 @@ template <unsigned kSplit, std::size_t kGroups>
                          _mm256_fmadd_ps(r1[a], _mm256_loadu_ps(y + s),
                                          _mm256_fmadd_ps(r0[a], _mm256_loadu_ps(x + s), shift[a]))))
                    : below_all;  // beyond the template: below every plane, no work
-        if (group + g + 1 == groups) k[g] = _mm256_or_si256(k[g], last_padding);
       }
       const __m256i bytes = _mm256_packs_epi16(_mm256_packs_epi32(k[0], k[1]), _mm256_packs_epi32(k[2], k[3]));
       near = _mm256_or_si256(near, _mm256_cmpeq_epi8(bytes, _mm256_setzero_si256()));
       above[a] |= std::uint64_t(~static_cast<std::uint32_t>(_mm256_movemask_epi8(bytes))) << (32 * half);
     }
   }
-  add_points_above<kSplit>(P, above, 1, ~std::uint64_t(0));  // the padding is below every plane
+  add_points_above<kSplit>(P, above, 1, kInterleavedValid[n]);
   if (!_mm256_testz_si256(near, near)) return false;
   counts_from_above<kSplit>(P, counts);
   return true;
@@ -335,7 +338,56 @@ constexpr auto kCrossedGroups = [] {
   return m;
 }();
 
-/// count_avx2 for more than 64 points (split_groups): per split axis, the balls of eight
+/// count_avx2 for 65 to kMostUngroupedWords x 64 points compared one by one:
+/// count_avx2_body's comparisons and packs over every word, axis after axis (four
+/// broadcasts live), the last word's padding masked by kInterleavedValid. Up to about 800
+/// points this costs no more than the groups' test (vfe_bench_octant_count: 1.7 times less
+/// at 130 points, the same at 815, 1.4 to 1.8 times more at 2000 and 4000).
+template <unsigned kSplit>
+[[gnu::always_inline]] inline __attribute__((target("avx2,fma,popcnt"))) bool count_plain_body(
+    const SplitView& t, const float* rows, const float tau[3], std::int32_t counts[8]) {
+  constexpr int kAxes = SplitAxes<kSplit>::count;
+  constexpr const int(&axis)[3] = SplitAxes<kSplit>::axis;
+  const std::size_t n = t.n, words = t.words, stride = words * 64;
+  const float* x = t.points;
+  const float* y = x + stride;
+  const float* z = y + stride;
+  __m256i near = _mm256_setzero_si256();
+  std::uint64_t above[kAxes][kMaxSplitWords];
+  for (int a = 0; a < kAxes; ++a) {
+    const float* r = rows + 3 * axis[a];
+    const __m256 r0 = _mm256_set1_ps(r[0]), r1 = _mm256_set1_ps(r[1]), r2 = _mm256_set1_ps(r[2]);
+    const __m256 shift = _mm256_set1_ps(tau[axis[a]] * -static_cast<float>(kSplitScale));
+    for (std::size_t w = 0; w < words; ++w) {
+      std::uint64_t word = 0;
+#pragma GCC unroll 2
+      for (std::size_t half = 0; half < 2; ++half) {
+        __m256i k[4];
+#pragma GCC unroll 4
+        for (std::size_t g = 0; g < 4; ++g) {
+          const std::size_t s = 64 * w + 32 * half + 8 * g;
+          k[g] = _mm256_cvtps_epi32(_mm256_fmadd_ps(
+              r2, _mm256_loadu_ps(z + s),
+              _mm256_fmadd_ps(r1, _mm256_loadu_ps(y + s), _mm256_fmadd_ps(r0, _mm256_loadu_ps(x + s), shift))));
+        }
+        const __m256i bytes = _mm256_packs_epi16(_mm256_packs_epi32(k[0], k[1]), _mm256_packs_epi32(k[2], k[3]));
+        near = _mm256_or_si256(near, _mm256_cmpeq_epi8(bytes, _mm256_setzero_si256()));
+        word |= std::uint64_t(~static_cast<std::uint32_t>(_mm256_movemask_epi8(bytes))) << (32 * half);
+      }
+      above[a][w] = word;
+    }
+  }
+  if (!_mm256_testz_si256(near, near)) return false;
+  std::int32_t P[8] = {};
+  P[0] = static_cast<std::int32_t>(n);
+  const std::uint64_t last = kInterleavedValid[n - 64 * (words - 1)];
+  for (std::size_t w = 0; w < words; ++w)
+    add_points_above<kSplit>(P, &above[0][w], kMaxSplitWords, w + 1 == words ? last : ~std::uint64_t(0));
+  counts_from_above<kSplit>(P, counts);
+  return true;
+}
+
+/// count_avx2 for more than kMostUngroupedWords x 64 points (split_groups): per split axis, the balls of eight
 /// groups at a time against the plane. A group whose ball the plane misses by more than two
 /// guard bands (1 in scaled units; float's error on the distance is below 0.05 there) lies
 /// on one side whole, none of its points near; only the groups the plane crosses are
@@ -345,9 +397,8 @@ constexpr auto kCrossedGroups = [] {
 template <unsigned kSplit>
 [[gnu::always_inline]] inline __attribute__((target("avx2,fma,popcnt"))) bool count_grouped_body(
     const SplitView& t, const float* rows, const float tau[3], std::int32_t counts[8]) {
-  constexpr int kAxes = std::popcount(kSplit);
-  constexpr unsigned kRest = kSplit & (kSplit - 1);
-  constexpr int axis[3] = {std::countr_zero(kSplit), std::countr_zero(kRest), std::countr_zero(kRest & (kRest - 1))};
+  constexpr int kAxes = SplitAxes<kSplit>::count;
+  constexpr const int(&axis)[3] = SplitAxes<kSplit>::axis;
   const std::size_t n = t.n, words = t.words, stride = words * 64, gstride = words * 8;
   const std::size_t groups = (n + 7) / 8;
   const float* x = t.points;
@@ -436,14 +487,9 @@ constexpr OctantCounter vector_counter() {
   return {{count_unsplit, count_one_avx2<kBodies>...}, {count_batch<count_unsplit>, count_batch_avx2<kBodies>...}};
 }
 
-/// Templates of kGroups groups of eight points (at most 64), or of more (kGroups = 0: in
-/// groups with their balls).
+/// Templates of kGroups groups of eight points (at most 64).
 template <std::size_t kGroups>
 constexpr OctantCounter sized_counter() {
-  if constexpr (kGroups == 0)
-    return vector_counter<count_grouped_body<1>, count_grouped_body<2>, count_grouped_body<3>, count_grouped_body<4>,
-                          count_grouped_body<5>, count_grouped_body<6>, count_grouped_body<7>>();
-  else
     return vector_counter<count_avx2_body<1, kGroups>, count_avx2_body<2, kGroups>, count_avx2_body<3, kGroups>,
                           count_avx2_body<4, kGroups>, count_avx2_body<5, kGroups>, count_avx2_body<6, kGroups>,
                           count_avx2_body<7, kGroups>>();
@@ -464,11 +510,27 @@ const OctantCounter& octant_counter(const ParticleTemplate& t, SplitPath path) {
        count_batch<count_portable_split<7>>}};
 #ifdef VFE_OCTANT_AVX2
   // Entry g: templates of g groups of eight points (at most 64 points); entry 0: more (in groups).
-  static const OctantCounter vector[9] = {sized_counter<0>(), sized_counter<1>(), sized_counter<2>(),
-                                          sized_counter<3>(), sized_counter<4>(), sized_counter<5>(),
-                                          sized_counter<6>(), sized_counter<7>(), sized_counter<8>()};
+  // Entry g: templates of g groups of eight points (at most 64 points).
+  static const OctantCounter by_groups[9] = {{},
+                                             sized_counter<1>(),
+                                             sized_counter<2>(),
+                                             sized_counter<3>(),
+                                             sized_counter<4>(),
+                                             sized_counter<5>(),
+                                             sized_counter<6>(),
+                                             sized_counter<7>(),
+                                             sized_counter<8>()};
+  static const OctantCounter plain =
+      vector_counter<count_plain_body<1>, count_plain_body<2>, count_plain_body<3>, count_plain_body<4>,
+                     count_plain_body<5>, count_plain_body<6>, count_plain_body<7>>();
+  static const OctantCounter grouped =
+      vector_counter<count_grouped_body<1>, count_grouped_body<2>, count_grouped_body<3>, count_grouped_body<4>,
+                     count_grouped_body<5>, count_grouped_body<6>, count_grouped_body<7>>();
   static const bool avx2 = has_avx2();
-  if (path == SplitPath::fastest && avx2) return vector[t.split_words == 1 ? (t.size() + 7) / 8 : 0];
+  if (path == SplitPath::fastest && avx2) {
+    if (t.split_words == 1) return by_groups[(t.size() + 7) / 8];
+    return t.split_words <= kMostUngroupedWords ? plain : grouped;
+  }
 #endif
   (void)t, (void)path;
   return portable;

@@ -5,7 +5,7 @@
 // octants are a popcount of three masks. The comparisons run in float; a point too near a
 // plane for float to decide makes the caller locate that particle in double, so every
 // sub-element lands in the cell the straightforward locate gives it. A template of more
-// than 64 points is kept in groups of eight near one another: a plane that misses a
+// than 512 points is kept in groups of eight near one another: a plane that misses a
 // group's bounding ball settles its eight points with one comparison.
 #pragma once
 
@@ -28,6 +28,10 @@ inline constexpr double kSplitScale = 0.5 / kSplitGuard;
 
 /// Most points the counting path takes (64 words of 64); larger templates scatter.
 inline constexpr std::size_t kMaxSplitWords = 64;
+
+/// Templates of up to this many words of 64 points are compared point by point; larger ones
+/// are kept in groups of eight with a ball each (ParticleTemplate::split_groups).
+inline constexpr std::size_t kMostUngroupedWords = 8;
 
 /// Fills t.split_points when every sub-element has the same share and the template has at
 /// most kMaxSplitWords x 64 points; otherwise leaves them empty.

@@ -26,10 +26,11 @@ struct ParticleTemplate {
   /// Empty unless prepare_octant_split made them (it needs equal fractions).
   std::vector<float> split_points;
   std::size_t split_words = 0;
-  /// For more than 64 points, the points above are in groups of eight near one another
-  /// (their order is not the template's), and these are balls holding the groups, scaled
-  /// alike: centres x, y, z, then radii, each padded to split_words x 8 values. A split
-  /// plane that misses a group's ball puts the whole group on one side.
+  /// For more than kMostUngroupedWords x 64 points (octant_split.hpp), the points above
+  /// are in groups of eight near one another (their order is not the template's), and
+  /// these are balls holding the groups, scaled alike: centres x, y, z, then radii, each
+  /// padded to split_words x 8 values. A split plane that misses a group's ball puts the
+  /// whole group on one side.
   std::vector<float> split_groups;
 
   std::size_t size() const { return points.size(); }

@@ -1,0 +1,56 @@
+// pmm's octant count alone (kernels/octant_split.hpp): one batch call per 256 particles of
+// one set of split axes, each with a random rotation from the bank and random thresholds,
+// for the templates method=auto takes at chi = 2 (45 points) and chi = 1 (815), and one
+// between; the fastest code the CPU runs and the portable one. Time per particle counted.
+#include <vfe/kernels/octant_split.hpp>
+#include <vfe/kernels/particle_template.hpp>
+
+#include <benchmark/benchmark.h>
+
+#include <cstdint>
+#include <random>
+#include <vector>
+
+namespace {
+
+using vfe::kernels::OctantQuery;
+
+void count_batches(benchmark::State& state, vfe::kernels::SplitPath path) {
+  vfe::kernels::ParticleTemplate t = vfe::kernels::make_fibonacci_template(static_cast<int>(state.range(0)));
+  vfe::kernels::prepare_octant_split(t);
+  const auto split = static_cast<unsigned>(state.range(1));
+  const vfe::kernels::OctantCounter& counter = vfe::kernels::octant_counter(t, path);
+  const float* bank = vfe::kernels::banked_rotation_rows_table();
+  std::mt19937_64 rng(1);
+  std::uniform_real_distribution<float> offset(-0.8f, 0.8f);  // planes through the template
+  constexpr std::size_t kBatch = 256, kQueries = 1 << 16;
+  std::vector<OctantQuery> queries(kQueries);
+  for (OctantQuery& q : queries) {
+    q.rows = bank + 9 * (rng() % vfe::kernels::kRotationBankSize);
+    for (float& tau : q.tau) tau = offset(rng);
+  }
+  std::vector<std::int32_t> counts(8 * kBatch);
+  std::vector<std::uint8_t> decided(kBatch);
+  std::size_t next = 0;
+  for (auto _ : state) {
+    counter.batch_by_split[split](t, queries.data() + next, kBatch, counts.data(), decided.data());
+    benchmark::DoNotOptimize(counts.data());
+    benchmark::DoNotOptimize(decided.data());
+    next = (next + kBatch) % kQueries;
+  }
+  state.SetItemsProcessed(static_cast<std::int64_t>(state.iterations() * kBatch));
+  // Seconds per particle counted.
+  state.counters["per_count"] = benchmark::Counter(double(kBatch), benchmark::Counter::kIsIterationInvariantRate |
+                                                                       benchmark::Counter::kInvert);
+}
+
+void fastest(benchmark::State& state) { count_batches(state, vfe::kernels::SplitPath::fastest); }
+void portable(benchmark::State& state) { count_batches(state, vfe::kernels::SplitPath::portable); }
+
+// Arguments: template points, split set (1: x, 3: x and y, 7: all three axes).
+BENCHMARK(fastest)->ArgsProduct({{45, 130, 400, 815, 2000, 4000}, {1, 3, 7}});
+BENCHMARK(portable)->ArgsProduct({{45, 815}, {1, 7}});
+
+}  // namespace
+
+BENCHMARK_MAIN();
