@@ -387,13 +387,14 @@ template <unsigned kSplit>
   return true;
 }
 
-/// count_avx2 for more than kMostUngroupedWords x 64 points (split_groups): per split axis, the balls of eight
-/// groups at a time against the plane. A group whose ball the plane misses by more than two
-/// guard bands (1 in scaled units; float's error on the distance is below 0.05 there) lies
-/// on one side whole, none of its points near; only the groups the plane crosses are
-/// compared point by point, as count_avx2 does. The same counts and refusals as comparing
-/// every point; at 860 points (chi = 1 takes 815), under a quarter of the groups cross a
-/// plane at a random offset (OctantSplit.GroupsOfALargeTemplateAreCompact).
+/// count_avx2 for more than kMostUngroupedWords x 64 points (split_groups): per split
+/// axis, the balls of eight groups at a time against the plane. A group whose ball the
+/// plane misses by more than two guard bands (1 in scaled units; float's error on the
+/// distance is below 0.05 there) lies on one side whole, none of its points near; only the
+/// groups the plane crosses are compared point by point, as count_avx2_body does. The same
+/// counts and refusals as comparing every point; at 860 points (chi = 1 takes 815), under a
+/// quarter of the groups cross a plane at a random offset
+/// (OctantSplit.GroupsOfALargeTemplateAreCompact).
 template <unsigned kSplit>
 [[gnu::always_inline]] inline __attribute__((target("avx2,fma,popcnt"))) bool count_grouped_body(
     const SplitView& t, const float* rows, const float tau[3], std::int32_t counts[8]) {

@@ -27,10 +27,10 @@ void expect_same_field(const std::vector<double>& a, const std::vector<double>& 
 
 /// Spheres of radius r whose template points lie within 1e-13 of a cell face: centre =
 /// face - r R q_i (+- 1e-13) along one axis, the other axes random, q_i of the template of
-/// 45 points and R the identity (orientation=none) or, banked, sphere i's rotation from the
-/// bank (orientation=random, seed 0, the key its index).
-Particles near_face_spheres(double h, int cells, double r, int count, bool banked = false) {
-  const kernels::ParticleTemplate t = kernels::make_fibonacci_template(45);
+/// `points` points and R the identity (orientation=none) or, banked, sphere i's rotation
+/// from the bank (orientation=random, seed 0, the key its index).
+Particles near_face_spheres(double h, int cells, double r, int count, bool banked = false, int points = 45) {
+  const kernels::ParticleTemplate t = kernels::make_fibonacci_template(points);
   std::mt19937_64 rng(banked ? 4 : 3);
   std::uniform_real_distribution<double> pos(2 * h, (cells - 2) * h);
   Particles p;
@@ -53,13 +53,18 @@ TEST(PmmCounting, EveryCellEqualsLocatingEverySubElement) {
     std::string options;
   };
   std::vector<Case> cases;
-  // chi = 4, 2 and 1 (radius 1/8, 1/4, 1/2 of the cell), random orientations.
-  for (const double r : {0.125, 0.25, 0.5}) cases.push_back({"random", random_spheres(11, 3000, 1.0, 9.0, r, r), ""});
+  // chi = 4, 2, 1.5 and 1 (radius 1/8, 1/4, 1/3, 1/2 of the cell), random orientations:
+  // particle_grid=auto's templates of each counting code (up to 64 points, 65 to 512
+  // compared one by one, more in groups).
+  for (const double r : {0.125, 0.25, 1.0 / 3.0, 0.5})
+    cases.push_back({"random", random_spheres(11, 3000, 1.0, 9.0, r, r), ""});
   cases.push_back({"polydisperse", random_spheres(12, 3000, 1.0, 9.0, 0.15, 0.5), ""});
   cases.push_back({"near faces", near_face_spheres(1.0, 10, 0.25, 3000), " orientation=none particle_grid=45"});
   cases.push_back({"near faces chi 1", near_face_spheres(1.0, 10, 0.5, 3000), " orientation=none particle_grid=45"});
   cases.push_back({"near faces, banked rotations", near_face_spheres(1.0, 10, 0.25, 3000, true),
                    " orientation=random seed=0 particle_grid=45"});
+  cases.push_back({"near faces, banked rotations, 120 points", near_face_spheres(1.0, 10, 1.0 / 3.0, 3000, true, 120),
+                   " orientation=random seed=0 particle_grid=120"});
   cases.push_back({"beyond the grid", random_spheres(13, 2000, -0.5, 10.5, 0.2, 0.4), " outside=nearest"});
   cases.push_back({"periodic", random_spheres(14, 2000, -0.5, 10.5, 0.2, 0.4), " periodic=xyz"});
   cases.push_back({"block", random_spheres(15, 3000, 1.0, 9.0, 0.15, 0.5), ""});
