@@ -69,7 +69,7 @@ void prepare_octant_split(ParticleTemplate& t) {
   // hundred steps of Badoiu and Clarkson's walk towards the farthest point, from the
   // points' mean), as floats, and the farthest float point's distance from it (in double)
   // grown by 1e-6, which covers the float rotation rows' norm (1 within 1e-7), rounded up;
-  // padding groups get zeros and are masked. A ball is a little looser than the box, but
+  // padding groups get zeros and are masked. A ball can be looser than the box, but
   // its reach along any plane normal is that one number: the test of eight groups against
   // a plane costs three products fewer.
   const std::size_t gstride = words * 8;
@@ -81,10 +81,10 @@ void prepare_octant_split(ParticleTemplate& t) {
     for (std::size_t s = first; s < end; ++s) centre += point(s);
     centre /= double(end - first);
     for (int step = 1; step <= 300; ++step) {
-      std::size_t farthest = first;
-      for (std::size_t s = first; s < end; ++s)
-        if ((point(s) - centre).squaredNorm() > (point(farthest) - centre).squaredNorm()) farthest = s;
-      centre += (point(farthest) - centre) / double(step + 1);
+      Eigen::Vector3d farthest = point(first);
+      for (std::size_t s = first + 1; s < end; ++s)
+        if ((point(s) - centre).squaredNorm() > (farthest - centre).squaredNorm()) farthest = point(s);
+      centre += (farthest - centre) / double(step + 1);
     }
     for (int d = 0; d < 3; ++d) t.split_groups[d * gstride + g] = static_cast<float>(centre[d]);
     double radius = 0;
@@ -256,13 +256,30 @@ constexpr auto kInterleavedValid = [] {
   return m;
 }();
 
+/// R_d . q - tau_d, scaled, of the eight points q from s on (x, y, z: the scaled
+/// coordinates): r0, r1, r2 the row R_d and shift -kSplitScale tau_d, broadcast.
+[[gnu::always_inline]] inline __attribute__((target("avx2,fma"))) __m256 plane_offsets(
+    __m256 r0, __m256 r1, __m256 r2, __m256 shift, const float* x, const float* y, const float* z, std::size_t s) {
+  return _mm256_fmadd_ps(r2, _mm256_loadu_ps(z + s),
+                         _mm256_fmadd_ps(r1, _mm256_loadu_ps(y + s), _mm256_fmadd_ps(r0, _mm256_loadu_ps(x + s), shift)));
+}
+
+/// 32 points' rounded scaled distances (four groups of eight) packed with saturation, which
+/// keeps sign and zero, into 32 bytes: their points above the plane as one movemask (in
+/// the packs' interleaved order), and near gathers the bytes of those in the guard band.
+[[gnu::always_inline]] inline __attribute__((target("avx2"))) std::uint32_t points_above(const __m256i k[4],
+                                                                                       __m256i& near) {
+  const __m256i bytes = _mm256_packs_epi16(_mm256_packs_epi32(k[0], k[1]), _mm256_packs_epi32(k[2], k[3]));
+  near = _mm256_or_si256(near, _mm256_cmpeq_epi8(bytes, _mm256_setzero_si256()));
+  return ~static_cast<std::uint32_t>(_mm256_movemask_epi8(bytes));
+}
+
 /// Per split axis d the scaled distance k = round(kSplitScale (R_d . q - tau_d)) of each
 /// point as an integer (the points are stored scaled): k = 0 is a point within the guard
-/// band (the particle goes to double), k > 0 above, k < 0 below. Four groups of eight points
-/// pack with saturation (which keeps sign and zero) into 32 bytes, whose sign bits are one
-/// movemask: 32 points per axis in a few instructions. The packs interleave the points in a
-/// fixed order, the same for every axis, and a count of "above on every axis of a set" does
-/// not depend on the order (kInterleavedValid masks the padding in that order).
+/// band (the particle goes to double), k > 0 above, k < 0 below; points_above packs 32 of
+/// them into one movemask. The packs interleave the points in a fixed order, the same for
+/// every axis, and a count of "above on every axis of a set" does not depend on the order
+/// (kInterleavedValid masks the padding in that order).
 /// kGroups: the template's groups of eight points, 1 to 8 (at most 64 points: the loops
 /// unroll into straight code; larger templates take count_plain_body or count_grouped_body).
 template <unsigned kSplit, std::size_t kGroups>
@@ -299,16 +316,10 @@ template <unsigned kSplit, std::size_t kGroups>
 #pragma GCC unroll 4
       for (std::size_t g = 0; g < 4; ++g) {
         const std::size_t s = 8 * (group + g);
-        k[g] = group + g < groups
-                   ? _mm256_cvtps_epi32(_mm256_fmadd_ps(
-                         r2[a], _mm256_loadu_ps(z + s),
-                         _mm256_fmadd_ps(r1[a], _mm256_loadu_ps(y + s),
-                                         _mm256_fmadd_ps(r0[a], _mm256_loadu_ps(x + s), shift[a]))))
-                   : below_all;  // beyond the template: below every plane, no work
+        k[g] = group + g < groups ? _mm256_cvtps_epi32(plane_offsets(r0[a], r1[a], r2[a], shift[a], x, y, z, s))
+                                  : below_all;  // beyond the template: below every plane, no work
       }
-      const __m256i bytes = _mm256_packs_epi16(_mm256_packs_epi32(k[0], k[1]), _mm256_packs_epi32(k[2], k[3]));
-      near = _mm256_or_si256(near, _mm256_cmpeq_epi8(bytes, _mm256_setzero_si256()));
-      above[a] |= std::uint64_t(~static_cast<std::uint32_t>(_mm256_movemask_epi8(bytes))) << (32 * half);
+      above[a] |= std::uint64_t(points_above(k, near)) << (32 * half);
     }
   }
   add_points_above<kSplit>(P, above, 1, kInterleavedValid[n]);
@@ -365,14 +376,9 @@ template <unsigned kSplit>
         __m256i k[4];
 #pragma GCC unroll 4
         for (std::size_t g = 0; g < 4; ++g) {
-          const std::size_t s = 64 * w + 32 * half + 8 * g;
-          k[g] = _mm256_cvtps_epi32(_mm256_fmadd_ps(
-              r2, _mm256_loadu_ps(z + s),
-              _mm256_fmadd_ps(r1, _mm256_loadu_ps(y + s), _mm256_fmadd_ps(r0, _mm256_loadu_ps(x + s), shift))));
+          k[g] = _mm256_cvtps_epi32(plane_offsets(r0, r1, r2, shift, x, y, z, 64 * w + 32 * half + 8 * g));
         }
-        const __m256i bytes = _mm256_packs_epi16(_mm256_packs_epi32(k[0], k[1]), _mm256_packs_epi32(k[2], k[3]));
-        near = _mm256_or_si256(near, _mm256_cmpeq_epi8(bytes, _mm256_setzero_si256()));
-        word |= std::uint64_t(~static_cast<std::uint32_t>(_mm256_movemask_epi8(bytes))) << (32 * half);
+        word |= std::uint64_t(points_above(k, near)) << (32 * half);
       }
       above[a][w] = word;
     }
@@ -425,9 +431,7 @@ template <unsigned kSplit>
     const __m256 shift = _mm256_set1_ps(tau[axis[a]] * -static_cast<float>(kSplitScale));
     for (std::size_t w = 0; w < words; ++w) {
       const std::size_t g0 = 8 * w;
-      const __m256 centre = _mm256_fmadd_ps(
-          r2, _mm256_loadu_ps(cz + g0),
-          _mm256_fmadd_ps(r1, _mm256_loadu_ps(cy + g0), _mm256_fmadd_ps(r0, _mm256_loadu_ps(cx + g0), shift)));
+      const __m256 centre = plane_offsets(r0, r1, r2, shift, cx, cy, cz, g0);
       // |n . (q - c)| <= |n| |q - c|: the ball's reach along the plane's normal.
       const __m256 reach = _mm256_add_ps(_mm256_loadu_ps(radii + g0), margin);
       const unsigned valid = w + 1 == words ? last_groups : 0xFFu;
@@ -447,9 +451,7 @@ template <unsigned kSplit>
     }
     for (std::size_t i = 0; i < count; ++i) {
       const std::size_t g = crossed[i], s = 8 * g;
-      const __m256i k = _mm256_cvtps_epi32(_mm256_fmadd_ps(
-          r2, _mm256_loadu_ps(z + s),
-          _mm256_fmadd_ps(r1, _mm256_loadu_ps(y + s), _mm256_fmadd_ps(r0, _mm256_loadu_ps(x + s), shift))));
+      const __m256i k = _mm256_cvtps_epi32(plane_offsets(r0, r1, r2, shift, x, y, z, s));
       near = _mm256_or_si256(near, _mm256_cmpeq_epi32(k, _mm256_setzero_si256()));
       above[a][g] = static_cast<std::uint8_t>(~_mm256_movemask_ps(_mm256_castsi256_ps(k)));
     }
