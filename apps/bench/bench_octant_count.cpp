@@ -1,7 +1,8 @@
 // pmm's octant count alone (kernels/octant_split.hpp): one batch call per 256 particles of
 // one set of split axes, each with a random rotation from the bank and random thresholds,
-// for the templates method=auto takes at chi = 2 (45 points) and chi = 1 (815), and one
-// between; the fastest code the CPU runs and the portable one. Time per particle counted.
+// for templates from the 45 points method=auto takes at chi = 2 to 4000 (815 at chi = 1),
+// each counting code's sizes; the fastest code the CPU runs and the portable one. Time per
+// particle counted.
 #include <vfe/kernels/octant_split.hpp>
 #include <vfe/kernels/particle_template.hpp>
 

@@ -260,8 +260,8 @@ constexpr auto kInterleavedValid = [] {
 /// coordinates): r0, r1, r2 the row R_d and shift -kSplitScale tau_d, broadcast.
 [[gnu::always_inline]] inline __attribute__((target("avx2,fma"))) __m256 plane_offsets(
     __m256 r0, __m256 r1, __m256 r2, __m256 shift, const float* x, const float* y, const float* z, std::size_t s) {
-  return _mm256_fmadd_ps(r2, _mm256_loadu_ps(z + s),
-                         _mm256_fmadd_ps(r1, _mm256_loadu_ps(y + s), _mm256_fmadd_ps(r0, _mm256_loadu_ps(x + s), shift)));
+  const __m256 xy = _mm256_fmadd_ps(r1, _mm256_loadu_ps(y + s), _mm256_fmadd_ps(r0, _mm256_loadu_ps(x + s), shift));
+  return _mm256_fmadd_ps(r2, _mm256_loadu_ps(z + s), xy);
 }
 
 /// 32 points' rounded scaled distances (four groups of eight) packed with saturation, which

@@ -34,7 +34,8 @@ TEST_P(OctantSplitPaths, CountsEqualTheStraightforwardCountOnMillionsOfSubElemen
   std::mt19937_64 rng(7);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   std::int64_t sub_elements = 0, refused = 0, cases = 0, near_cases = 0, clear_cases = 0, clear_refused = 0;
-  // Every count of eight-point groups up to 64 points (each has its own code), then larger.
+  // Every count of eight-point groups up to 64 points (each has its own code), then 65 to 512
+  // points (compared one by one; 512 and 513 either side of the rule) and groups.
   for (const int n : {1, 7, 12, 20, 29, 35, 45, 53, 64, 65, 130, 300, 512, 513, 815}) {
     ParticleTemplate t = vfe::kernels::make_fibonacci_template(n);
     vfe::kernels::prepare_octant_split(t);
@@ -184,7 +185,7 @@ TEST(OctantSplit, GroupsOfALargeTemplateAreCompact) {
       }
     }
     testing::Test::RecordProperty("crossed_share_" + std::to_string(n), std::to_string(crossed / tested));
-    EXPECT_LT(crossed / tested, 0.3) << "n " << n;
+    EXPECT_LT(crossed / tested, n > 700 ? 0.25 : 0.3) << "n " << n;  // 0.226 and 0.259 when written
   }
 }
 
