@@ -529,18 +529,20 @@ struct Engine::Impl {
             detail::plan_sphere_windows(pa, chunk + k, std::min(detail::kQuickBlock, n - k), *g,
                                         planned[k / detail::kQuickBlock]);
           detail::PmmQuick::Tally tally;
-          quick.finish_chunk(
-              tally, planned, n, [&](std::int64_t k) { return sphere_volume(pa.radius(chunk + k)); },
-              [&](std::int64_t k) { return pa.rotation_key(chunk + k); }, add,
-              [&](std::int64_t k, bool fast) {
-                if (!hybrid) return;
-                part.centre = pa.centre(chunk + k);
-                part.radius = pa.radius(chunk + k);
-                detail::auto_count_quick(ctx.grid, s, part, fast);
-              },
-              [&](std::int64_t k) { general(chunk + k); },
-              // An octant without sub-elements may add 0.0: a cell of the private field stays as it is.
-              detail::PmmQuick::EmptyOctants::add_zero);
+          auto finish = [&](auto&& taken) {
+            quick.finish_chunk(
+                tally, planned, n, add, taken, [&](std::int64_t k) { general(chunk + k); },
+                // An octant without sub-elements may add 0.0: a cell of the private field stays as it is.
+                detail::PmmQuick::EmptyOctants::add_zero);
+          };
+          if (hybrid)  // method=auto counts its paths
+            finish([&](std::int64_t k, bool fast) {
+              part.centre = pa.centre(chunk + k);
+              part.radius = pa.radius(chunk + k);
+              detail::auto_count_quick(ctx.grid, s, part, fast);
+            });
+          else
+            finish([](std::int64_t, bool) {});
           quick.commit(s, tally);
         }
         return;
@@ -588,6 +590,18 @@ struct Engine::Impl {
     });
   }
 
+  /// Adds into a field in the grid's own numbering; pair adds to two neighbouring cells
+  /// (PmmQuick's octants along x) with one load and store of both.
+  struct GridFieldAdd {
+    double* field;
+    void operator()(std::int64_t cell, double v) const { field[cell] += v; }
+    void pair(std::int64_t cell, double a, double b) const {
+      double* const f = field + cell;
+      const double x = f[0] + a, y = f[1] + b;
+      f[0] = x, f[1] = y;
+    }
+  };
+
   /// Phase 1 by a pass of the caller's own over the particles (blocks of 256 on the
   /// engine's threads), adding straight into each thread's private field:
   /// body(scratch, add, block) with add(cell, volume), cell a cell of fused_grid(). The
@@ -605,7 +619,7 @@ struct Engine::Impl {
           if (map)
             body(s, [field, map](std::int64_t cell, double v) { field[map[cell]] += v; }, r);
           else
-            body(s, [field](std::int64_t cell, double v) { field[cell] += v; }, r);
+            body(s, GridFieldAdd{field}, r);
         });
       });
       return 0;

@@ -2,12 +2,29 @@
 
 #include "sphere_lanes.hpp"
 
+#include <vfe/kernels/particle_template.hpp>
+
 #include <cstring>
+#include <numbers>
 
 namespace vfe::detail {
 namespace {
 
 using namespace lanes;
+
+using v4u = std::uint64_t __attribute__((vector_size(32)));
+
+constexpr double k4pi3 = 4.0 / 3.0 * std::numbers::pi;  // sphere_volume's factor, the same rounding
+
+/// The rotation keys of spheres p to p + lanes - 1 (pa.rotation_key), the lanes beyond
+/// repeating the last.
+[[gnu::always_inline]] inline void rotation_keys(const ParticleArrays& pa, std::int64_t p, int lanes, v4u& keys) {
+  const std::int64_t j1 = std::min(1, lanes - 1), j2 = std::min(2, lanes - 1), j3 = std::min(3, lanes - 1);
+  if (!pa.ids)
+    keys = v4u{} + std::uint64_t(p) + v4u{0, std::uint64_t(j1), std::uint64_t(j2), std::uint64_t(j3)};
+  else
+    keys = v4u{pa.rotation_key(p), pa.rotation_key(p + j1), pa.rotation_key(p + j2), pa.rotation_key(p + j3)};
+}
 
 /// Four spheres (lanes past `lanes` repeat the last) per step, from entry k of out. Per axis
 /// the operations of PmmQuick in the same order: a = (c - half - o) / h and
@@ -46,11 +63,20 @@ template <bool kPacked>
   }
   const v4i in = __builtin_convertvector(inside, v4i), large = __builtin_convertvector(countable_r, v4i);
   const v4i countable = large & (extra == 1) & (g.countable ? v4i{} - 1 : v4i{});
+  const v4i counted = in & countable;
   const v4i kind = in & (((extra == 0) & std::int32_t{QuickWindows::fast}) | (countable & std::int32_t{QuickWindows::count}));
+  const v4i counted_two = two & counted;
+  const v4d volume = k4pi3 * r * r * r;
+  v4u keys;
+  rotation_keys(pa, p, lanes, keys);
+  kernels::rotation_bank_slots(keys, g.seed);
+  const v4i slot = __builtin_convertvector(keys, v4i);
   std::memcpy(out.kind + k, &kind, sizeof kind);
-  std::memcpy(out.two + k, &two, sizeof two);
+  std::memcpy(out.two + k, &counted_two, sizeof counted_two);
   std::memcpy(out.cell + k, &cell, sizeof cell);
+  std::memcpy(out.slot + k, &slot, sizeof slot);
   for (int d = 0; d < 3; ++d) std::memcpy(out.tau[d] + k, &tau[d], sizeof tau[d]);
+  std::memcpy(out.volume + k, &volume, sizeof volume);
 }
 
 template <bool kPacked>

@@ -18,6 +18,7 @@ struct QuickGrid {
   double min_radius;  ///< counting needs r above this
   bool countable;     ///< the template can be counted per octant
   std::int32_t nx, nxy;
+  std::uint64_t seed;  ///< orientation=random's seed: the rotation bank's slots
 };
 
 /// The quick cases of up to kQuickBlock spheres, entry i for sphere first + i.
@@ -25,13 +26,16 @@ inline constexpr std::int64_t kQuickBlock = 16;
 struct QuickWindows {
   enum Kind : std::int32_t { general, fast, count };
   std::int32_t kind[kQuickBlock];
-  std::int32_t two[kQuickBlock];   ///< count: bit d set when the window has two cells along d
+  std::int32_t two[kQuickBlock];   ///< count: bit d set when the window has two cells along d; else 0
   std::int32_t cell[kQuickBlock];  ///< fast or count: the window's first cell
+  std::int32_t slot[kQuickBlock];  ///< count: the rotation bank's slot of the sphere's rotation key
   float tau[3][kQuickBlock];       ///< count: the thresholds per axis (PmmQuick's)
+  double volume[kQuickBlock];      ///< fast or count: the sphere's volume (sphere_volume's rounding)
 };
 
 /// The quick cases of spheres [first, first + count) of pa (count <= kQuickBlock):
-/// PmmQuick's decisions, bit for bit.
+/// PmmQuick's decisions, bit for bit, with each counted sphere's rotation slot
+/// (kernels::rotation_bank_slot of pa.rotation_key and g.seed) and each sphere's volume.
 enum class PlanBuild { fastest, baseline };
 void plan_sphere_windows(const ParticleArrays& pa, std::int64_t first, std::int64_t count, const QuickGrid& g,
                          QuickWindows& out, PlanBuild build = PlanBuild::fastest);

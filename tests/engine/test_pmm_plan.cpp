@@ -2,15 +2,20 @@
 // written from PmmQuick's rules: the window's cells floor((c -+ half - o) / h) per axis from
 // the products with 1 / h, general when it reaches beyond the grid, the fast path for one
 // cell, a count for at most two per axis with tau = (1 - ((c - o) / h - lo)) h / r in
-// float. Both builds (baseline x86-64 and the fastest the CPU has) must give the oracle's
-// decisions bit for bit, for every block length, packed and strided arrays, and windows
-// whose bounds fall exactly on faces or on the grid's boundary.
+// float; each counted sphere's rotation slot (kernels::rotation_bank_slot of its rotation
+// key) and each sphere's volume (sphere_volume). Both builds (baseline x86-64 and the
+// fastest the CPU has) must give the oracle's decisions bit for bit, for every block
+// length, packed and strided arrays, with and without host ids, and windows whose bounds
+// fall exactly on faces or on the grid's boundary.
 #include "pmm_plan.hpp"
+
+#include <vfe/kernels/particle_template.hpp>
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstring>
+#include <numbers>
 #include <random>
 #include <vector>
 
@@ -37,6 +42,7 @@ QuickGrid make_grid() {
   g.countable = true;
   g.nx = n[0];
   g.nxy = n[0] * n[1];
+  g.seed = 0x5eed;
   return g;
 }
 
@@ -72,14 +78,18 @@ Expected oracle(const QuickGrid& g, const double* c, double r) {
   return e;
 }
 
-/// Spheres as records of `stride` doubles (x, y, z, r first).
+/// Spheres as records of `stride` doubles (x, y, z, r first), and host ids (large, so the
+/// hash's 64-bit products matter).
 struct Spheres {
   std::vector<double> records;
+  std::vector<std::int64_t> ids;
   int stride = 4;
+  bool with_ids = false;
   std::int64_t n() const { return static_cast<std::int64_t>(records.size()) / stride; }
   void add(double x, double y, double z, double r) {
     records.insert(records.end(), {x, y, z, r});
     records.resize(records.size() + static_cast<std::size_t>(stride - 4), -7.0);
+    ids.push_back(std::int64_t(0x7654321) * static_cast<std::int64_t>(ids.size()) + 0x123456789abcll);
   }
   ParticleArrays arrays() const {
     ParticleArrays pa;
@@ -88,6 +98,7 @@ struct Spheres {
     pa.centres_stride = 8 * stride;
     pa.radii = reinterpret_cast<const char*>(records.data() + 3);
     pa.radii_stride = 8 * stride;
+    if (with_ids) pa.ids = reinterpret_cast<const char*>(ids.data());
     return pa;
   }
 };
@@ -133,10 +144,15 @@ void expect_oracle(const Spheres& s, PlanBuild build, std::int64_t block) {
       ASSERT_EQ(w.kind[i], e.kind) << "sphere " << first + i;
       fast += e.kind == QuickWindows::fast, count += e.kind == QuickWindows::count;
       general += e.kind == QuickWindows::general;
+      // The split sets of the spheres it does not count are 0 (finish_chunk sorts by them).
+      ASSERT_EQ(w.two[i], e.two) << "sphere " << first + i;
       if (e.kind == QuickWindows::general) continue;
       ASSERT_EQ(w.cell[i], e.cell) << "sphere " << first + i;
+      const double volume = 4.0 / 3.0 * std::numbers::pi * rec[3] * rec[3] * rec[3];
+      ASSERT_EQ(std::memcmp(&w.volume[i], &volume, sizeof volume), 0) << "sphere " << first + i;
       if (e.kind != QuickWindows::count) continue;
-      ASSERT_EQ(w.two[i], e.two) << "sphere " << first + i;
+      const std::size_t slot = kernels::rotation_bank_slot(pa.rotation_key(first + i), g.seed);
+      ASSERT_EQ(w.slot[i], static_cast<std::int32_t>(slot)) << "sphere " << first + i;
       for (int d = 0; d < 3; ++d) {
         float got = w.tau[d][i];
         ASSERT_EQ(std::memcmp(&got, &e.tau[d], sizeof got), 0) << "sphere " << first + i << " axis " << d;
@@ -151,13 +167,16 @@ void expect_oracle(const Spheres& s, PlanBuild build, std::int64_t block) {
 
 TEST(PmmPlan, BothBuildsGiveTheOneSphereDecisionsBitForBit) {
   for (const int stride : {4, 5})
-    for (const PlanBuild build : {PlanBuild::fastest, PlanBuild::baseline})
-      for (const std::int64_t block : {std::int64_t(1), std::int64_t(3), std::int64_t(4), std::int64_t(7),
-                                       detail::kQuickBlock}) {
-        SCOPED_TRACE("stride " + std::to_string(stride) + (build == PlanBuild::fastest ? " fastest" : " baseline") +
-                     " block " + std::to_string(block));
-        expect_oracle(test_spheres(stride), build, block);
-      }
+    for (const bool ids : {false, true})
+      for (const PlanBuild build : {PlanBuild::fastest, PlanBuild::baseline})
+        for (const std::int64_t block : {std::int64_t(1), std::int64_t(3), std::int64_t(4), std::int64_t(7),
+                                         detail::kQuickBlock}) {
+          SCOPED_TRACE("stride " + std::to_string(stride) + (ids ? " ids" : "") +
+                       (build == PlanBuild::fastest ? " fastest" : " baseline") + " block " + std::to_string(block));
+          Spheres s = test_spheres(stride);
+          s.with_ids = ids;
+          expect_oracle(s, build, block);
+        }
 }
 
 TEST(PmmPlan, ATemplateThatCannotBeCountedIsNeverCounted) {

@@ -332,6 +332,7 @@ class PmmQuick {
       grid_.reach = single_->reach;
       grid_.countable = !single_->split_points.empty();
     }
+    grid_.seed = seed_;
     grid_.nx = static_cast<std::int32_t>(window_grid_ ? nx_ : 0);
     grid_.nxy = static_cast<std::int32_t>(window_grid_ ? nxy_ : 0);
   }
@@ -435,66 +436,80 @@ class PmmQuick {
   /// by split axes: in a shuffled stream the counting code and the number of adds change at
   /// random from one sphere to the next, which the CPU mispredicts; one set of split axes
   /// after another, they repeat, and one call counts a whole set. Only the order of the adds
-  /// changes. volume(k) and rotation_key(k) of sphere k as its Particle's; taken(k, fast)
-  /// for each sphere added (fast: by the fast path), declined(k) for each of the others.
-  template <class Volume, class Key, class Sink, class Taken, class Declined>
-  void finish_chunk(Tally& tally, const QuickWindows* windows, std::int64_t n, Volume&& volume, Key&& rotation_key,
-                    Sink&& sink, Taken&& taken, Declined&& declined, EmptyOctants empty = EmptyOctants::skip) const {
+  /// changes. The plan gives each sphere's volume and rotation slot. taken(k, fast) for each
+  /// sphere added (fast: by the fast path), declined(k) for each of the others.
+  template <class Sink, class Taken, class Declined>
+  void finish_chunk(Tally& tally, const QuickWindows* windows, std::int64_t n, Sink&& sink, Taken&& taken,
+                    Declined&& declined, EmptyOctants empty = EmptyOctants::skip) const {
     constexpr std::int64_t kBlock = kQuickBlock;
-    std::int64_t first[9] = {};  // counts per split set, then their first slots
+    // Spheres per split set (the plan's two is 0 for a sphere it does not count), then each
+    // set's first slot.
+    std::int64_t first[9] = {};
+    for (std::int64_t k = 0; k < n; ++k) ++first[windows[k / kBlock].two[k % kBlock] + 1];
+    for (int split = 0; split < 8; ++split) first[split + 1] += first[split];
+    std::int64_t next[8];
+    std::copy(first, first + 8, next);
+    // One pass: the fast path's adds, the declined spheres, and each counted sphere's query,
+    // cell and volume in its set's slots.
+    std::uint16_t sphere[kChunk];
+    std::int32_t cell[kChunk];
+    double volume[kChunk];
+    kernels::OctantQuery query[kChunk];
     for (std::int64_t k = 0; k < n; ++k) {
       const QuickWindows& w = windows[k / kBlock];
       const std::int64_t i = k % kBlock;
       if (w.kind[i] == QuickWindows::count) {
-        ++first[w.two[i] + 1];
+        const std::int64_t slot = next[w.two[i]]++;
+        sphere[slot] = static_cast<std::uint16_t>(k);
+        cell[slot] = w.cell[i];
+        volume[slot] = w.volume[i];
+        query[slot] = {bank_rows_ + 9 * std::int64_t(w.slot[i]), {w.tau[0][i], w.tau[1][i], w.tau[2][i]}};
       } else if (w.kind[i] == QuickWindows::fast) {
         ++tally.fast;
-        sink(w.cell[i], volume(k));
+        sink(w.cell[i], w.volume[i]);
         taken(k, true);
       } else {
         declined(k);
       }
     }
-    for (int split = 0; split < 8; ++split) first[split + 1] += first[split];
-    std::int64_t next[8];
-    std::copy(first, first + 8, next);
-    std::uint16_t sphere[kChunk];
-    kernels::OctantQuery query[kChunk];
-    for (std::int64_t k = 0; k < n; ++k) {
-      const QuickWindows& w = windows[k / kBlock];
-      const std::int64_t i = k % kBlock;
-      if (w.kind[i] != QuickWindows::count) continue;
-      const std::int64_t slot = next[w.two[i]]++;
-      sphere[slot] = static_cast<std::uint16_t>(k);
-      query[slot] = {bank_rows_ + 9 * kernels::rotation_bank_slot(rotation_key(k), seed_),
-                     {w.tau[0][i], w.tau[1][i], w.tau[2][i]}};
-    }
     std::int32_t counts[8 * kChunk];
     std::uint8_t decided[kChunk];
     const double fraction = single_->fractions[0];
-    for (unsigned split = 0; split < 8; ++split) {  // a count has a split axis: set 0 stays empty
+    for (unsigned split = 1; split < 8; ++split) {  // a count has a split axis: set 0 holds no count
       const std::int64_t begin = first[split], end = first[split + 1];
       if (begin == end) continue;
       counter_->batch_by_split[split](*single_, query + begin, static_cast<std::size_t>(end - begin),
                                       counts + 8 * begin, decided + begin);
       for (std::int64_t slot = begin; slot < end; ++slot) {
-        const std::int64_t k = sphere[slot];
         if (!decided[slot]) {
-          declined(k);
+          declined(sphere[slot]);
           continue;
         }
         ++tally.counted;
-        add_octants(counts + 8 * slot, split, windows[k / kBlock].cell[k % kBlock], volume(k) * fraction, sink, empty);
-        taken(k, false);
+        add_octants(counts + 8 * slot, split, cell[slot], volume[slot] * fraction, sink, empty);
+        taken(sphere[slot], false);
       }
     }
   }
 
  private:
   /// A count's adds: share per sub-element into each octant the split axes reach.
+  /// Octants o and o | 1 (split along x) are neighbouring cells: with add_zero, a sink that
+  /// has pair(cell, a, b) (adds a to cell and b to cell + 1) takes both at once, which halves
+  /// the adds of every split set with x.
   template <class Sink>
   [[gnu::always_inline]] void add_octants(const std::int32_t counts[8], unsigned two, std::int64_t cell,
                                           double share, Sink&& sink, EmptyOctants empty) const {
+    if constexpr (requires { sink.pair(cell, share, share); }) {
+      if (empty == EmptyOctants::add_zero && (two & 1u)) {
+        const unsigned yz = two & ~1u;
+        for (unsigned o = yz;; o = (o - 1) & yz) {
+          sink.pair(cell + corner_offset_[o], share * double(counts[o]), share * double(counts[o | 1]));
+          if (o == 0) break;
+        }
+        return;
+      }
+    }
     for (unsigned o = two;; o = (o - 1) & two) {
       if (counts[o] || empty == EmptyOctants::add_zero) sink(cell + corner_offset_[o], share * double(counts[o]));
       if (o == 0) break;

@@ -75,13 +75,22 @@ const float* banked_random_rotation_rows(std::uint64_t index, std::uint64_t seed
 /// Rotations in the bank.
 inline constexpr std::size_t kRotationBankSize = 4096;
 
-/// The bank slot of (index, seed): a hash, so neighbouring indices get unrelated rotations.
-inline std::size_t rotation_bank_slot(std::uint64_t index, std::uint64_t seed) {
-  std::uint64_t z = index * 0x9E3779B97F4A7C15ull + seed * 0xD1B54A32D192ED03ull + 0x632BE59BD9B4E019ull;
+/// rotation_bank_slot in place, on any unsigned 64-bit type: a scalar, or a GCC vector of
+/// them (several particles' slots at once, lane by lane the same values; in place, since
+/// returning a 256-bit vector would change the ABI of a build without AVX).
+template <class U>
+[[gnu::always_inline]] inline void rotation_bank_slots(U& z, std::uint64_t seed) {
+  z = z * 0x9E3779B97F4A7C15ull + (seed * 0xD1B54A32D192ED03ull + 0x632BE59BD9B4E019ull);
   z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
   z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
   z ^= z >> 31;
-  return static_cast<std::size_t>(z & (kRotationBankSize - 1));
+  z &= kRotationBankSize - 1;
+}
+
+/// The bank slot of (index, seed): a hash, so neighbouring indices get unrelated rotations.
+inline std::size_t rotation_bank_slot(std::uint64_t index, std::uint64_t seed) {
+  rotation_bank_slots(index, seed);
+  return static_cast<std::size_t>(index);
 }
 
 /// The whole bank as floats, slot after slot, 9 values each (banked_random_rotation_rows
