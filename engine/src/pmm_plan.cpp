@@ -98,8 +98,19 @@ __attribute__((target("arch=x86-64-v3"))) void plan_all_v3(const ParticleArrays&
                                                             std::int64_t count, const QuickGrid& g, QuickWindows& out) {
   packed(pa) ? plan_block<true>(pa, first, count, g, out) : plan_block<false>(pa, first, count, g, out);
 }
+// The same for AVX-512 (still four lanes a step): the rotation slots' 64-bit products are
+// one instruction each instead of AVX2's three 32-bit ones and their shifts (6 % of pmm's
+// time at chi = 2; docs/performance.md).
+__attribute__((target("arch=x86-64-v4"))) void plan_all_v4(const ParticleArrays& pa, std::int64_t first,
+                                                            std::int64_t count, const QuickGrid& g, QuickWindows& out) {
+  packed(pa) ? plan_block<true>(pa, first, count, g, out) : plan_block<false>(pa, first, count, g, out);
+}
 bool has_v3() {
   static const bool yes = __builtin_cpu_supports("x86-64-v3");
+  return yes;
+}
+bool has_v4() {
+  static const bool yes = __builtin_cpu_supports("x86-64-v4");
   return yes;
 }
 #endif
@@ -109,7 +120,9 @@ bool has_v3() {
 void plan_sphere_windows(const ParticleArrays& pa, std::int64_t first, std::int64_t count, const QuickGrid& g,
                          QuickWindows& out, [[maybe_unused]] PlanBuild build) {
 #ifdef VFE_PLAN_V3
-  if (build == PlanBuild::fastest && has_v3()) return plan_all_v3(pa, first, count, g, out);
+  if (build == PlanBuild::fastest && has_v4()) return plan_all_v4(pa, first, count, g, out);
+  if ((build == PlanBuild::fastest || build == PlanBuild::avx2) && has_v3())
+    return plan_all_v3(pa, first, count, g, out);
 #endif
   plan_all(pa, first, count, g, out);
 }

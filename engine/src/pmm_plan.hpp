@@ -1,7 +1,8 @@
 // pmm's quick cases decided for several spheres at once: each sphere's window of cells and,
 // where it spans at most two cells per axis, the thresholds of its octant count
-// (methods/driver.hpp, PmmQuick), four spheres a step, built for baseline x86-64 and for
-// x86-64-v3 (used when the CPU has it) with the same results as one sphere at a time.
+// (methods/driver.hpp, PmmQuick), with each counted sphere's rotation slot and each sphere's
+// volume, four spheres a step, built for baseline x86-64, x86-64-v3 and x86-64-v4 (the
+// newest the CPU has is used) with the same results as one sphere at a time.
 #pragma once
 
 #include "particle_arrays.hpp"
@@ -36,7 +37,9 @@ struct QuickWindows {
 /// The quick cases of spheres [first, first + count) of pa (count <= kQuickBlock):
 /// PmmQuick's decisions, bit for bit, with each counted sphere's rotation slot
 /// (kernels::rotation_bank_slot of pa.rotation_key and g.seed) and each sphere's volume.
-enum class PlanBuild { fastest, baseline };
+/// Which build runs: the fastest the CPU has, baseline x86-64, or AVX2 (x86-64-v3) where the
+/// CPU has it, else baseline (the tests compare them).
+enum class PlanBuild { fastest, baseline, avx2 };
 void plan_sphere_windows(const ParticleArrays& pa, std::int64_t first, std::int64_t count, const QuickGrid& g,
                          QuickWindows& out, PlanBuild build = PlanBuild::fastest);
 

@@ -3,8 +3,8 @@
 // the products with 1 / h, general when it reaches beyond the grid, the fast path for one
 // cell, a count for at most two per axis with tau = (1 - ((c - o) / h - lo)) h / r in
 // float; each counted sphere's rotation slot (kernels::rotation_bank_slot of its rotation
-// key) and each sphere's volume (sphere_volume). Both builds (baseline x86-64 and the
-// fastest the CPU has) must give the oracle's decisions bit for bit, for every block
+// key) and each sphere's volume (sphere_volume). Every build (baseline x86-64, AVX2 and
+// the fastest the CPU has) must give the oracle's decisions bit for bit, for every block
 // length, packed and strided arrays, with and without host ids, and windows whose bounds
 // fall exactly on faces or on the grid's boundary.
 #include "pmm_plan.hpp"
@@ -168,11 +168,14 @@ void expect_oracle(const Spheres& s, PlanBuild build, std::int64_t block) {
 TEST(PmmPlan, BothBuildsGiveTheOneSphereDecisionsBitForBit) {
   for (const int stride : {4, 5})
     for (const bool ids : {false, true})
-      for (const PlanBuild build : {PlanBuild::fastest, PlanBuild::baseline})
+      for (const PlanBuild build : {PlanBuild::fastest, PlanBuild::baseline, PlanBuild::avx2})
         for (const std::int64_t block : {std::int64_t(1), std::int64_t(3), std::int64_t(4), std::int64_t(7),
                                          detail::kQuickBlock}) {
           SCOPED_TRACE("stride " + std::to_string(stride) + (ids ? " ids" : "") +
-                       (build == PlanBuild::fastest ? " fastest" : " baseline") + " block " + std::to_string(block));
+                       (build == PlanBuild::fastest    ? " fastest"
+                        : build == PlanBuild::baseline ? " baseline"
+                                                       : " avx2") +
+                       " block " + std::to_string(block));
           Spheres s = test_spheres(stride);
           s.with_ids = ids;
           expect_oracle(s, build, block);
