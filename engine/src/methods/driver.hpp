@@ -443,10 +443,20 @@ class PmmQuick {
                     Declined&& declined, EmptyOctants empty = EmptyOctants::skip) const {
     constexpr std::int64_t kBlock = kQuickBlock;
     // Spheres per split set (the plan's two is 0 for a sphere it does not count), then each
-    // set's first slot.
-    std::int64_t first[9] = {};
-    for (std::int64_t k = 0; k < n; ++k) ++first[windows[k / kBlock].two[k % kBlock] + 1];
-    for (int split = 0; split < 8; ++split) first[split + 1] += first[split];
+    // set's first slot. Whole blocks by comparisons that vectorise (a counter in memory
+    // per sphere would chain its increments through the store).
+    const std::int64_t whole = n / kBlock;
+    std::int32_t per_set[8] = {};
+    for (std::int64_t b = 0; b < whole; ++b)
+      for (std::int32_t split = 1; split < 8; ++split) {
+        std::int32_t c = 0;
+        for (std::int64_t i = 0; i < kBlock; ++i) c += windows[b].two[i] == split;
+        per_set[split] += c;
+      }
+    for (std::int64_t k = whole * kBlock; k < n; ++k) ++per_set[windows[whole].two[k - whole * kBlock]];
+    std::int64_t first[9];
+    first[0] = first[1] = 0;  // set 0 holds no count
+    for (int split = 1; split < 8; ++split) first[split + 1] = first[split] + per_set[split];
     std::int64_t next[8];
     std::copy(first, first + 8, next);
     // One pass: the fast path's adds, the declined spheres, and each counted sphere's query,
@@ -455,21 +465,24 @@ class PmmQuick {
     std::int32_t cell[kChunk];
     double volume[kChunk];
     kernels::OctantQuery query[kChunk];
-    for (std::int64_t k = 0; k < n; ++k) {
-      const QuickWindows& w = windows[k / kBlock];
-      const std::int64_t i = k % kBlock;
-      if (w.kind[i] == QuickWindows::count) {
-        const std::int64_t slot = next[w.two[i]]++;
-        sphere[slot] = static_cast<std::uint16_t>(k);
-        cell[slot] = w.cell[i];
-        volume[slot] = w.volume[i];
-        query[slot] = {bank_rows_ + 9 * std::int64_t(w.slot[i]), {w.tau[0][i], w.tau[1][i], w.tau[2][i]}};
-      } else if (w.kind[i] == QuickWindows::fast) {
-        ++tally.fast;
-        sink(w.cell[i], w.volume[i]);
-        taken(k, true);
-      } else {
-        declined(k);
+    for (std::int64_t b = 0; b * kBlock < n; ++b) {
+      const QuickWindows& w = windows[b];
+      const std::int64_t m = std::min(kBlock, n - b * kBlock);
+      for (std::int64_t i = 0; i < m; ++i) {
+        const std::int64_t k = b * kBlock + i;
+        if (w.kind[i] == QuickWindows::count) {
+          const std::int64_t slot = next[w.two[i]]++;
+          sphere[slot] = static_cast<std::uint16_t>(k);
+          cell[slot] = w.cell[i];
+          volume[slot] = w.volume[i];
+          query[slot] = {bank_rows_ + 9 * std::int64_t(w.slot[i]), {w.tau[0][i], w.tau[1][i], w.tau[2][i]}};
+        } else if (w.kind[i] == QuickWindows::fast) {
+          ++tally.fast;
+          sink(w.cell[i], w.volume[i]);
+          taken(k, true);
+        } else {
+          declined(k);
+        }
       }
     }
     std::int32_t counts[8 * kChunk];
