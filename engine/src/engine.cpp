@@ -525,9 +525,7 @@ struct Engine::Impl {
         detail::QuickWindows planned[kChunk / detail::kQuickBlock];
         for (std::int64_t chunk = r.begin(); chunk < r.end(); chunk += kChunk) {
           const std::int64_t n = std::min(kChunk, r.end() - chunk);
-          for (std::int64_t k = 0; k < n; k += detail::kQuickBlock)
-            detail::plan_sphere_windows(pa, chunk + k, std::min(detail::kQuickBlock, n - k), *g,
-                                        planned[k / detail::kQuickBlock]);
+          detail::plan_sphere_windows(pa, chunk, n, *g, planned);
           detail::PmmQuick::Tally tally;
           auto finish = [&](auto&& taken) {
             quick.finish_chunk(

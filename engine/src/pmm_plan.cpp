@@ -79,30 +79,33 @@ template <bool kPacked>
   std::memcpy(out.volume + k, &volume, sizeof volume);
 }
 
+/// Spheres [first, first + count) into out[0], out[1], ... (kQuickBlock spheres each; four
+/// divides kQuickBlock, so a step stays in one block).
 template <bool kPacked>
 [[gnu::always_inline]] inline void plan_block(const ParticleArrays& pa, std::int64_t first, std::int64_t count,
-                                              const QuickGrid& g, QuickWindows& out) {
+                                              const QuickGrid& g, QuickWindows* out) {
   std::int64_t k = 0;
-  for (; k + 4 <= count; k += 4) plan_four<kPacked>(pa, first + k, 4, g, out, k);
-  if (k < count) plan_four<kPacked>(pa, first + k, static_cast<int>(count - k), g, out, k);
+  for (; k + 4 <= count; k += 4) plan_four<kPacked>(pa, first + k, 4, g, out[k / kQuickBlock], k % kQuickBlock);
+  if (k < count)
+    plan_four<kPacked>(pa, first + k, static_cast<int>(count - k), g, out[k / kQuickBlock], k % kQuickBlock);
 }
 
 void plan_all(const ParticleArrays& pa, std::int64_t first, std::int64_t count, const QuickGrid& g,
-              QuickWindows& out) {
+              QuickWindows* out) {
   packed(pa) ? plan_block<true>(pa, first, count, g, out) : plan_block<false>(pa, first, count, g, out);
 }
 
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
 #define VFE_PLAN_V3 1
 __attribute__((target("arch=x86-64-v3"))) void plan_all_v3(const ParticleArrays& pa, std::int64_t first,
-                                                            std::int64_t count, const QuickGrid& g, QuickWindows& out) {
+                                                            std::int64_t count, const QuickGrid& g, QuickWindows* out) {
   packed(pa) ? plan_block<true>(pa, first, count, g, out) : plan_block<false>(pa, first, count, g, out);
 }
 // The same for AVX-512 (still four lanes a step): the rotation slots' 64-bit products are
 // one instruction each instead of AVX2's three 32-bit ones and their shifts (6 % of pmm's
 // time at chi = 2; docs/performance.md).
 __attribute__((target("arch=x86-64-v4"))) void plan_all_v4(const ParticleArrays& pa, std::int64_t first,
-                                                            std::int64_t count, const QuickGrid& g, QuickWindows& out) {
+                                                            std::int64_t count, const QuickGrid& g, QuickWindows* out) {
   packed(pa) ? plan_block<true>(pa, first, count, g, out) : plan_block<false>(pa, first, count, g, out);
 }
 bool has_v3() {
@@ -118,7 +121,7 @@ bool has_v4() {
 }  // namespace
 
 void plan_sphere_windows(const ParticleArrays& pa, std::int64_t first, std::int64_t count, const QuickGrid& g,
-                         QuickWindows& out, [[maybe_unused]] PlanBuild build) {
+                         QuickWindows* out, [[maybe_unused]] PlanBuild build) {
 #ifdef VFE_PLAN_V3
   if (build == PlanBuild::fastest && has_v4()) return plan_all_v4(pa, first, count, g, out);
   if ((build == PlanBuild::fastest || build == PlanBuild::avx2) && has_v3())

@@ -136,26 +136,28 @@ void expect_oracle(const Spheres& s, PlanBuild build, std::int64_t block) {
   int fast = 0, count = 0, general = 0;
   for (std::int64_t first = 0; first < pa.n; first += block) {
     const std::int64_t m = std::min(block, pa.n - first);
-    QuickWindows w;
-    detail::plan_sphere_windows(pa, first, m, g, w, build);
-    for (std::int64_t i = 0; i < m; ++i) {
-      const double* rec = s.records.data() + (first + i) * s.stride;
+    std::vector<QuickWindows> blocks(static_cast<std::size_t>((m + detail::kQuickBlock - 1) / detail::kQuickBlock));
+    detail::plan_sphere_windows(pa, first, m, g, blocks.data(), build);
+    for (std::int64_t k = 0; k < m; ++k) {
+      const QuickWindows& w = blocks[static_cast<std::size_t>(k / detail::kQuickBlock)];
+      const std::int64_t i = k % detail::kQuickBlock;
+      const double* rec = s.records.data() + (first + k) * s.stride;
       const Expected e = oracle(g, rec, rec[3]);
-      ASSERT_EQ(w.kind[i], e.kind) << "sphere " << first + i;
+      ASSERT_EQ(w.kind[i], e.kind) << "sphere " << first + k;
       fast += e.kind == QuickWindows::fast, count += e.kind == QuickWindows::count;
       general += e.kind == QuickWindows::general;
       // The split sets of the spheres it does not count are 0 (finish_chunk sorts by them).
-      ASSERT_EQ(w.two[i], e.two) << "sphere " << first + i;
+      ASSERT_EQ(w.two[i], e.two) << "sphere " << first + k;
       if (e.kind == QuickWindows::general) continue;
-      ASSERT_EQ(w.cell[i], e.cell) << "sphere " << first + i;
+      ASSERT_EQ(w.cell[i], e.cell) << "sphere " << first + k;
       const double volume = 4.0 / 3.0 * std::numbers::pi * rec[3] * rec[3] * rec[3];
-      ASSERT_EQ(std::memcmp(&w.volume[i], &volume, sizeof volume), 0) << "sphere " << first + i;
+      ASSERT_EQ(std::memcmp(&w.volume[i], &volume, sizeof volume), 0) << "sphere " << first + k;
       if (e.kind != QuickWindows::count) continue;
-      const std::size_t slot = kernels::rotation_bank_slot(pa.rotation_key(first + i), g.seed);
-      ASSERT_EQ(w.slot[i], static_cast<std::int32_t>(slot)) << "sphere " << first + i;
+      const std::size_t slot = kernels::rotation_bank_slot(pa.rotation_key(first + k), g.seed);
+      ASSERT_EQ(w.slot[i], static_cast<std::int32_t>(slot)) << "sphere " << first + k;
       for (int d = 0; d < 3; ++d) {
         float got = w.tau[d][i];
-        ASSERT_EQ(std::memcmp(&got, &e.tau[d], sizeof got), 0) << "sphere " << first + i << " axis " << d;
+        ASSERT_EQ(std::memcmp(&got, &e.tau[d], sizeof got), 0) << "sphere " << first + k << " axis " << d;
       }
     }
   }
@@ -170,7 +172,7 @@ TEST(PmmPlan, BothBuildsGiveTheOneSphereDecisionsBitForBit) {
     for (const bool ids : {false, true})
       for (const PlanBuild build : {PlanBuild::fastest, PlanBuild::baseline, PlanBuild::avx2})
         for (const std::int64_t block : {std::int64_t(1), std::int64_t(3), std::int64_t(4), std::int64_t(7),
-                                         detail::kQuickBlock}) {
+                                         detail::kQuickBlock, std::int64_t(37), std::int64_t(256)}) {
           SCOPED_TRACE("stride " + std::to_string(stride) + (ids ? " ids" : "") +
                        (build == PlanBuild::fastest    ? " fastest"
                         : build == PlanBuild::baseline ? " baseline"
@@ -191,7 +193,7 @@ TEST(PmmPlan, ATemplateThatCannotBeCountedIsNeverCounted) {
   for (std::int64_t first = 0; first < pa.n; first += detail::kQuickBlock) {
     QuickWindows w;
     const std::int64_t m = std::min(detail::kQuickBlock, pa.n - first);
-    detail::plan_sphere_windows(pa, first, m, g, w);
+    detail::plan_sphere_windows(pa, first, m, g, &w);
     for (std::int64_t i = 0; i < m; ++i) {
       ASSERT_NE(w.kind[i], QuickWindows::count);
       fast += w.kind[i] == QuickWindows::fast;
