@@ -34,13 +34,14 @@ struct QuickWindows {
   double volume[kQuickBlock];      ///< fast or count: the sphere's volume (sphere_volume's rounding)
 };
 
-/// The quick cases of spheres [first, first + count) of pa, kQuickBlock to an entry of out
-/// (sphere first + i in out[i / kQuickBlock], entry i % kQuickBlock):
-/// PmmQuick's decisions, bit for bit, with each counted sphere's rotation slot
-/// (kernels::rotation_bank_slot of pa.rotation_key and g.seed) and each sphere's volume.
 /// Which build runs: the fastest the CPU has, baseline x86-64, or AVX2 (x86-64-v3) where the
 /// CPU has it, else baseline (the tests compare them).
 enum class PlanBuild { fastest, baseline, avx2 };
+
+/// The quick cases of spheres [first, first + count) of pa, kQuickBlock to an entry of out
+/// (sphere first + i in out[i / kQuickBlock], entry i % kQuickBlock): PmmQuick's decisions,
+/// bit for bit, with each counted sphere's rotation slot (kernels::rotation_bank_slot of
+/// pa.rotation_key and g.seed) and each sphere's volume.
 void plan_sphere_windows(const ParticleArrays& pa, std::int64_t first, std::int64_t count, const QuickGrid& g,
                          QuickWindows* out, PlanBuild build = PlanBuild::fastest);
 

@@ -512,7 +512,6 @@ const OctantCounter& octant_counter(const ParticleTemplate& t, SplitPath path) {
        count_batch<count_portable_split<5>>, count_batch<count_portable_split<6>>,
        count_batch<count_portable_split<7>>}};
 #ifdef VFE_OCTANT_AVX2
-  // Entry g: templates of g groups of eight points (at most 64 points); entry 0: more (in groups).
   // Entry g: templates of g groups of eight points (at most 64 points).
   static const OctantCounter by_groups[9] = {{},
                                              sized_counter<1>(),

@@ -51,8 +51,8 @@ inline void exact_window_parts(const CartesianGrid& grid, const Particle& p, con
 /// pass a call per sphere cost 45 instructions of exact's 550 (GCC's heuristic stopped
 /// inlining it once the sink became a struct).
 template <class Sink>
-[[gnu::always_inline]] inline void exact_window_deposit(const CartesianGrid& grid, Scratch& s, const Particle& p, const std::int64_t lo[3],
-                          const std::int64_t hi[3], Sink&& sink) {
+[[gnu::always_inline]] inline void exact_window_deposit(const CartesianGrid& grid, Scratch& s, const Particle& p,
+                                                        const std::int64_t lo[3], const std::int64_t hi[3], Sink&& sink) {
   const std::int64_t base = grid.index(lo[0], lo[1], lo[2]);
   const std::int64_t step[3] = {hi[0] - lo[0], (hi[1] - lo[1]) * grid.cells()[0],
                                 (hi[2] - lo[2]) * grid.cells()[0] * grid.cells()[1]};
