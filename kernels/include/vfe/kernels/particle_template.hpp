@@ -80,11 +80,16 @@ inline constexpr std::size_t kRotationBankSize = 4096;
 /// returning a 256-bit vector would change the ABI of a build without AVX).
 template <class U>
 [[gnu::always_inline]] inline void rotation_bank_slots(U& z, std::uint64_t seed) {
-  z = z * 0x9E3779B97F4A7C15ull + (seed * 0xD1B54A32D192ED03ull + 0x632BE59BD9B4E019ull);
-  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+  // Every constant a std::uint64_t: Clang takes a scalar into a vector operation only of
+  // the vector's own element type (unsigned long, not unsigned long long).
+  constexpr std::uint64_t k1 = 0x9E3779B97F4A7C15ull, k2 = 0xD1B54A32D192ED03ull, k3 = 0x632BE59BD9B4E019ull,
+                          k4 = 0xBF58476D1CE4E5B9ull, k5 = 0x94D049BB133111EBull,
+                          mask = std::uint64_t(kRotationBankSize - 1);
+  z = z * k1 + std::uint64_t(seed * k2 + k3);
+  z = (z ^ (z >> 30)) * k4;
+  z = (z ^ (z >> 27)) * k5;
   z ^= z >> 31;
-  z &= kRotationBankSize - 1;
+  z &= mask;
 }
 
 /// The bank slot of (index, seed): a hash, so neighbouring indices get unrelated rotations.
