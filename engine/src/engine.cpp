@@ -588,18 +588,6 @@ struct Engine::Impl {
     });
   }
 
-  /// Adds into a field in the grid's own numbering; pair adds to two neighbouring cells
-  /// (PmmQuick's octants along x) with one load and store of both.
-  struct GridFieldAdd {
-    double* field;
-    void operator()(std::int64_t cell, double v) const { field[cell] += v; }
-    void pair(std::int64_t cell, double a, double b) const {
-      double* const f = field + cell;
-      const double x = f[0] + a, y = f[1] + b;
-      f[0] = x, f[1] = y;
-    }
-  };
-
   /// Phase 1 by a pass of the caller's own over the particles (blocks of 256 on the
   /// engine's threads), adding straight into each thread's private field:
   /// body(scratch, add, block) with add(cell, volume), cell a cell of fused_grid(). The
@@ -617,7 +605,7 @@ struct Engine::Impl {
           if (map)
             body(s, [field, map](std::int64_t cell, double v) { field[map[cell]] += v; }, r);
           else
-            body(s, GridFieldAdd{field}, r);
+            body(s, [field](std::int64_t cell, double v) { field[cell] += v; }, r);
         });
       });
       return 0;

@@ -507,22 +507,9 @@ class PmmQuick {
 
  private:
   /// A count's adds: share per sub-element into each octant the split axes reach.
-  /// Octants o and o | 1 (split along x) are neighbouring cells: with add_zero, a sink that
-  /// has pair(cell, a, b) (adds a to cell and b to cell + 1) takes both at once, which halves
-  /// the adds of every split set with x.
   template <class Sink>
   [[gnu::always_inline]] void add_octants(const std::int32_t counts[8], unsigned two, std::int64_t cell,
                                           double share, Sink&& sink, EmptyOctants empty) const {
-    if constexpr (requires { sink.pair(cell, share, share); }) {
-      if (empty == EmptyOctants::add_zero && (two & 1u)) {
-        const unsigned yz = two & ~1u;
-        for (unsigned o = yz;; o = (o - 1) & yz) {
-          sink.pair(cell + corner_offset_[o], share * double(counts[o]), share * double(counts[o | 1]));
-          if (o == 0) break;
-        }
-        return;
-      }
-    }
     for (unsigned o = two;; o = (o - 1) & two) {
       if (counts[o] || empty == EmptyOctants::add_zero) sink(cell + corner_offset_[o], share * double(counts[o]));
       if (o == 0) break;

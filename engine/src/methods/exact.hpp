@@ -47,12 +47,10 @@ inline void exact_window_parts(const CartesianGrid& grid, const Particle& p, con
 /// The parts of sphere p over a window lo..hi of exact_quick_window to sink(cell, volume),
 /// all 8, zeros included (a part not in the window is 0 and names a window cell), so that a
 /// sink adding into a field needs no branch the processor would mispredict. Counts the
-/// window's cells as sub-elements, as exact_particle does. Always inlined: in the fused
-/// pass a call per sphere cost 45 instructions of exact's 550 (GCC's heuristic stopped
-/// inlining it once the sink became a struct).
+/// window's cells as sub-elements, as exact_particle does.
 template <class Sink>
-[[gnu::always_inline]] inline void exact_window_deposit(const CartesianGrid& grid, Scratch& s, const Particle& p,
-                                                        const std::int64_t lo[3], const std::int64_t hi[3], Sink&& sink) {
+void exact_window_deposit(const CartesianGrid& grid, Scratch& s, const Particle& p, const std::int64_t lo[3],
+                          const std::int64_t hi[3], Sink&& sink) {
   const std::int64_t base = grid.index(lo[0], lo[1], lo[2]);
   const std::int64_t step[3] = {hi[0] - lo[0], (hi[1] - lo[1]) * grid.cells()[0],
                                 (hi[2] - lo[2]) * grid.cells()[0] * grid.cells()[1]};
