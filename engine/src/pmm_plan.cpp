@@ -5,7 +5,6 @@
 #include <vfe/kernels/particle_template.hpp>
 
 #include <cstring>
-#include <numbers>
 
 namespace vfe::detail {
 namespace {
@@ -13,8 +12,6 @@ namespace {
 using namespace lanes;
 
 using v4u = std::uint64_t __attribute__((vector_size(32)));
-
-constexpr double k4pi3 = 4.0 / 3.0 * std::numbers::pi;  // sphere_volume's factor, the same rounding
 
 /// The rotation keys of spheres p to p + lanes - 1 (pa.rotation_key), the lanes beyond
 /// repeating the last.

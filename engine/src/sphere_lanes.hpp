@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cstdint>
 #include <cstring>
+#include <numbers>
 
 namespace vfe::detail::lanes {
 
@@ -78,6 +79,9 @@ template <bool kPacked>
     }
   }
 }
+
+/// sphere_volume's factor, the same rounding: the passes' volumes k4pi3 r r r are its bits.
+inline constexpr double k4pi3 = 4.0 / 3.0 * std::numbers::pi;
 
 /// Whether pa's arrays are packed (load_spheres<true>).
 inline bool packed(const ParticleArrays& pa) { return pa.centres_stride == 24 && pa.radii_stride == 8; }

@@ -5,15 +5,12 @@
 #include <algorithm>
 #include <cstring>
 #include <limits>
-#include <numbers>
 #include <type_traits>
 
 namespace vfe::detail {
 namespace {
 
 using namespace lanes;
-
-constexpr double k4pi3 = 4.0 / 3.0 * std::numbers::pi;  // sphere_volume's factor, the same rounding
 
 /// The chunk again one by one, after the fast loop met a bad particle: a.first_bad, and
 /// the sums over the good ones.
