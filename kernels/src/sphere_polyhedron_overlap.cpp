@@ -134,42 +134,34 @@ bool segment_in_ball(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double 
 
 namespace {
 
-/// The overlap. winding: the centre's winding number about the surface, or -1 if unknown;
-/// when known, faces that do not reach into the open ball may be left out, and a centre
-/// within rounding of a reaching face's plane or near a reaching edge's line gives no value.
-std::optional<double> overlap(const Eigen::Vector3d& centre, double radius,
-                              std::span<const Eigen::Vector3d> vertices, std::span<const std::int32_t> face_offsets,
-                              std::span<const std::int32_t> face_vertices, int winding) {
-  const bool known = winding >= 0;
-  if (!(radius > 0)) return 0;
-  const double r = radius, r2 = r * r, r3 = r * r * r;
-  const double ball = 4.0 / 3.0 * std::numbers::pi * r3;
-  if (face_offsets.size() < 2 || vertices.empty()) return known ? winding * ball : 0;
+/// The ball and the rounding bound the face sums share.
+struct Ball {
+  double r, r2, r3;
+  /// A bound on the rounding of a face plane's height above the centre (relative
+  /// coordinates, normal, mean): about 1e4 ulps of the largest coordinate involved.
+  double height_rounding;
+};
 
-  // The polyhedron lies in its vertices' hull: no overlap when their box misses the ball,
-  // the whole polyhedron when they are all in the ball. (With the winding number known the
-  // faces given may be a part of the surface: then the box only tells that none of them
-  // reaches into the ball.)
-  Eigen::Vector3d lo = vertices[0], hi = vertices[0];
-  bool contained = !known;
-  for (const Eigen::Vector3d& v : vertices) {
-    lo = lo.cwiseMin(v);
-    hi = hi.cwiseMax(v);
-    contained = contained && (v - centre).squaredNorm() <= r2;
-  }
-  if ((centre.cwiseMax(lo).cwiseMin(hi) - centre).squaredNorm() >= r2) return known ? winding * ball : 0;
-  // A bound on the rounding of a face plane's height above the centre (relative
-  // coordinates, normal, mean): about 1e4 ulps of the largest coordinate.
-  const double height_rounding =
-      1e-12 * std::max({centre.cwiseAbs().maxCoeff(), lo.cwiseAbs().maxCoeff(), hi.cwiseAbs().maxCoeff()});
+/// What one face adds to overlap()'s sums.
+struct FaceSums {
+  double volume = 0;          ///< the cones' sum (the located sum's terms when the winding is known)
+  double polyhedron = 0;      ///< the divergence theorem's sum (winding unknown)
+  bool boundary_in_ball = false;  ///< some face reaches into the open ball
+  bool unsure = false;        ///< winding known, centre within rounding of a reaching face's plane or edge line
+};
 
-  const auto vertex = [&](std::int32_t k) -> Eigen::Vector3d {
-    return vertices[static_cast<std::size_t>(face_vertices[static_cast<std::size_t>(k)])] - centre;
-  };
-  // Whether the foot of the centre lies inside face [begin, end): winding number of the
-  // face projected along the normal's largest axis.
-  const auto foot_inside = [&](std::int32_t begin, std::int32_t end, const Eigen::Vector3d& foot,
-                               const Eigen::Vector3d& normal) {
+/// Adds face [begin, end) of vertex(k) (positions relative to the centre) to the sums:
+/// with the winding number known (`known`) its term of the located sum, else its cone and
+/// its part of the polyhedron's volume. `contained`: every vertex lies in the ball (only
+/// the volume is wanted).
+template <class Vertex>
+void add_face(const Vertex& vertex, std::int32_t begin, std::int32_t end, const Ball& ball, bool known,
+              bool contained, FaceSums& sums) {
+  if (end - begin < 3) return;
+  const double r = ball.r, r2 = ball.r2, r3 = ball.r3;
+  // Whether the foot of the centre lies inside the face: winding number of the face
+  // projected along the normal's largest axis.
+  const auto foot_inside = [&](const Eigen::Vector3d& foot, const Eigen::Vector3d& normal) {
     Eigen::Index axis = 0;
     normal.cwiseAbs().maxCoeff(&axis);
     const Eigen::Index i = (axis + 1) % 3, j = (axis + 2) % 3;
@@ -187,100 +179,141 @@ std::optional<double> overlap(const Eigen::Vector3d& centre, double radius,
     }
     return winding != 0;
   };
-  double volume = 0, polyhedron = 0;
-  bool boundary_in_ball = false;  // some face reaches into the open ball
+  // Area vector (fan about the first vertex) and the plane's height above the centre.
+  const Eigen::Vector3d u0 = vertex(begin);
+  Eigen::Vector3d area2 = Eigen::Vector3d::Zero(), sum = u0;
+  Eigen::Vector3d prev = vertex(begin + 1);
+  sum += prev;
+  for (std::int32_t k = begin + 2; k < end; ++k) {
+    const Eigen::Vector3d u = vertex(k);
+    area2 += (prev - u0).cross(u - u0);
+    sum += u;
+    prev = u;
+  }
+  const double norm = area2.norm();
+  if (!(norm > 0)) return;
+  // moment = height * norm * count: no division until the face is known to reach the
+  // ball (most faces of a cut cell lie beyond it).
+  const double count = double(end - begin);
+  const double moment = area2.dot(sum);
+  if (!known) sums.polyhedron += moment / (6 * count);
+  if (contained) return;
+
+  // A face that does not reach into the open ball is seen from the centre beyond the
+  // sphere: its cone adds R^3/3 times its (signed) solid angle.
+  const auto face_solid_angle = [&] {
+    double omega = 0;
+    for (std::int32_t k = begin + 1; k + 1 < end; ++k) omega += triangle_solid_angle(u0, vertex(k), vertex(k + 1));
+    return omega;
+  };
+  if (std::fabs(moment) >= r * norm * count) {  // the plane is beyond the sphere
+    if (!known) sums.volume += r3 / 3 * face_solid_angle();
+    return;
+  }
+  const Eigen::Vector3d normal = area2 / norm;
+  const double height = moment / (norm * count);
+  const double h = std::fabs(height);
+  const Eigen::Vector3d foot = height * normal;
+  bool meets = foot_inside(foot, normal);
+  for (std::int32_t k = begin; k < end && !meets; ++k)
+    meets = segment_in_ball(vertex(k), vertex(k + 1 == end ? begin : k + 1), r2);
+  if (!meets) {
+    if (!known && height != 0) sums.volume += r3 / 3 * face_solid_angle();
+    return;
+  }
+  if (known && h <= ball.height_rounding) {  // which side of this plane the centre is on is unsure
+    sums.unsure = true;
+    return;
+  }
+  sums.boundary_in_ball = true;
+  if (height == 0) return;  // a face through the centre adds no volume
+
+  FacePlane pl;
+  pl.h = h;
+  pl.r = r;
+  pl.r3 = r3;
+  pl.a2 = (r - h) * (r + h);
+  pl.cap = (r - h) / r;
+  pl.cap_volume = (r - h) * (r - h) * (2 * r + h) / 6;
+  double face_volume = 0;
+  for (std::int32_t k = begin; k < end; ++k) {
+    const Eigen::Vector3d a = vertex(k) - foot;
+    const Eigen::Vector3d edge = vertex(k + 1 == end ? begin : k + 1) - foot - a;
+    const double length = edge.norm();
+    if (!(length > 0)) continue;
+    const Eigen::Vector3d t = edge / length;
+    const double d_signed = normal.dot(a.cross(t));
+    const double d = std::fabs(d_signed);
+    if (d == 0) continue;  // p on the edge's line: a flat triangle
+    const double sa = a.dot(t), sb = sa + length;
+    const double rho = std::sqrt(h * h + d * d);
+    double part;
+    if (!known) {
+      part = right_triangle_cone(pl, d, rho, sb) - right_triangle_cone(pl, d, rho, sa);
+    } else if (pl.a2 <= d * d) {  // sectors only: the angle the edge spans, in one atan2
+      part = -std::atan2(d * (sb - sa), d * d + sa * sb) * pl.cap_volume;
+    } else {
+      // The disc reaches the edge's line: its solid angle changes by O(1) within rho of
+      // the line, so a centre near an edge (rho small against the edge's reach) would
+      // take the rounding of d and h times length / rho.
+      if (rho * rho < kEdgeMargin2 * (std::max(sa * sa, sb * sb) + d * d)) {
+        sums.unsure = true;
+        return;
+      }
+      part = right_triangle_cone_in_disc(pl, d, rho, sb) - right_triangle_cone_in_disc(pl, d, rho, sa);
+    }
+    face_volume += d_signed > 0 ? part : -part;
+  }
+  sums.volume += height > 0 ? face_volume : -face_volume;
+}
+
+/// The ball's volume.
+double ball_volume(double r) {
+  const double r3 = r * r * r;
+  return 4.0 / 3.0 * std::numbers::pi * r3;
+}
+
+/// The overlap. winding: the centre's winding number about the surface, or -1 if unknown;
+/// when known, faces that do not reach into the open ball may be left out, and a centre
+/// within rounding of a reaching face's plane or near a reaching edge's line gives no value.
+std::optional<double> overlap(const Eigen::Vector3d& centre, double radius,
+                              std::span<const Eigen::Vector3d> vertices, std::span<const std::int32_t> face_offsets,
+                              std::span<const std::int32_t> face_vertices, int winding) {
+  const bool known = winding >= 0;
+  if (!(radius > 0)) return 0;
+  const double r = radius, r2 = r * r, r3 = r * r * r;
+  const double ball = ball_volume(r);
+  if (face_offsets.size() < 2 || vertices.empty()) return known ? winding * ball : 0;
+
+  // The polyhedron lies in its vertices' hull: no overlap when their box misses the ball,
+  // the whole polyhedron when they are all in the ball. (With the winding number known the
+  // faces given may be a part of the surface: then the box only tells that none of them
+  // reaches into the ball.)
+  Eigen::Vector3d lo = vertices[0], hi = vertices[0];
+  bool contained = !known;
+  for (const Eigen::Vector3d& v : vertices) {
+    lo = lo.cwiseMin(v);
+    hi = hi.cwiseMax(v);
+    contained = contained && (v - centre).squaredNorm() <= r2;
+  }
+  if ((centre.cwiseMax(lo).cwiseMin(hi) - centre).squaredNorm() >= r2) return known ? winding * ball : 0;
+  const Ball b{r, r2, r3,
+               1e-12 * std::max({centre.cwiseAbs().maxCoeff(), lo.cwiseAbs().maxCoeff(), hi.cwiseAbs().maxCoeff()})};
+
+  const auto vertex = [&](std::int32_t k) -> Eigen::Vector3d {
+    return vertices[static_cast<std::size_t>(face_vertices[static_cast<std::size_t>(k)])] - centre;
+  };
+  FaceSums sums;
   const std::size_t n_faces = face_offsets.size() - 1;
   for (std::size_t f = 0; f < n_faces; ++f) {
-    const std::int32_t begin = face_offsets[f], end = face_offsets[f + 1];
-    if (end - begin < 3) continue;
-    // Area vector (fan about the first vertex) and the plane's height above the centre.
-    const Eigen::Vector3d u0 = vertex(begin);
-    Eigen::Vector3d area2 = Eigen::Vector3d::Zero(), sum = u0;
-    Eigen::Vector3d prev = vertex(begin + 1);
-    sum += prev;
-    for (std::int32_t k = begin + 2; k < end; ++k) {
-      const Eigen::Vector3d u = vertex(k);
-      area2 += (prev - u0).cross(u - u0);
-      sum += u;
-      prev = u;
-    }
-    const double norm = area2.norm();
-    if (!(norm > 0)) continue;
-    // moment = height * norm * count: no division until the face is known to reach the
-    // ball (most faces of a cut cell lie beyond it).
-    const double count = double(end - begin);
-    const double moment = area2.dot(sum);
-    if (!known) polyhedron += moment / (6 * count);
-    if (contained) continue;
-
-    // A face that does not reach into the open ball is seen from the centre beyond the
-    // sphere: its cone adds R^3/3 times its (signed) solid angle.
-    const auto face_solid_angle = [&] {
-      double omega = 0;
-      for (std::int32_t k = begin + 1; k + 1 < end; ++k) omega += triangle_solid_angle(u0, vertex(k), vertex(k + 1));
-      return omega;
-    };
-    if (std::fabs(moment) >= r * norm * count) {  // the plane is beyond the sphere
-      if (!known) volume += r3 / 3 * face_solid_angle();
-      continue;
-    }
-    const Eigen::Vector3d normal = area2 / norm;
-    const double height = moment / (norm * count);
-    const double h = std::fabs(height);
-    const Eigen::Vector3d foot = height * normal;
-    bool meets = foot_inside(begin, end, foot, normal);
-    for (std::int32_t k = begin; k < end && !meets; ++k)
-      meets = segment_in_ball(vertex(k), vertex(k + 1 == end ? begin : k + 1), r2);
-    if (!meets) {
-      if (!known && height != 0) volume += r3 / 3 * face_solid_angle();
-      continue;
-    }
-    if (known && h <= height_rounding)  // which side of this plane the centre is on is unsure
-      return std::nullopt;
-    boundary_in_ball = true;
-    if (height == 0) continue;  // a face through the centre adds no volume
-
-    FacePlane pl;
-    pl.h = h;
-    pl.r = r;
-    pl.r3 = r3;
-    pl.a2 = (r - h) * (r + h);
-    pl.cap = (r - h) / r;
-    pl.cap_volume = (r - h) * (r - h) * (2 * r + h) / 6;
-    double face_volume = 0;
-    for (std::int32_t k = begin; k < end; ++k) {
-      const Eigen::Vector3d a = vertex(k) - foot;
-      const Eigen::Vector3d edge = vertex(k + 1 == end ? begin : k + 1) - foot - a;
-      const double length = edge.norm();
-      if (!(length > 0)) continue;
-      const Eigen::Vector3d t = edge / length;
-      const double d_signed = normal.dot(a.cross(t));
-      const double d = std::fabs(d_signed);
-      if (d == 0) continue;  // p on the edge's line: a flat triangle
-      const double sa = a.dot(t), sb = sa + length;
-      const double rho = std::sqrt(h * h + d * d);
-      double part;
-      if (!known) {
-        part = right_triangle_cone(pl, d, rho, sb) - right_triangle_cone(pl, d, rho, sa);
-      } else if (pl.a2 <= d * d) {  // sectors only: the angle the edge spans, in one atan2
-        part = -std::atan2(d * (sb - sa), d * d + sa * sb) * pl.cap_volume;
-      } else {
-        // The disc reaches the edge's line: its solid angle changes by O(1) within rho of
-        // the line, so a centre near an edge (rho small against the edge's reach) would
-        // take the rounding of d and h times length / rho.
-        if (rho * rho < kEdgeMargin2 * (std::max(sa * sa, sb * sb) + d * d))
-          return std::nullopt;
-        part = right_triangle_cone_in_disc(pl, d, rho, sb) - right_triangle_cone_in_disc(pl, d, rho, sa);
-      }
-      face_volume += d_signed > 0 ? part : -part;
-    }
-    volume += height > 0 ? face_volume : -face_volume;
+    add_face(vertex, face_offsets[f], face_offsets[f + 1], b, known, contained, sums);
+    if (sums.unsure) return std::nullopt;
   }
-  if (known) return std::clamp(volume + winding * ball, 0.0, ball);
-  if (contained) return std::max(polyhedron, 0.0);
+  if (known) return sphere_located_overlap(r, winding == 1, sums.volume);
+  if (contained) return std::max(sums.polyhedron, 0.0);
   // No face in the open ball: the ball lies inside or outside, as the centre does.
-  if (!boundary_in_ball) return volume > 0.5 * ball ? ball : 0.0;
-  return std::clamp(volume, 0.0, std::max(0.0, std::min(ball, polyhedron)));
+  if (!sums.boundary_in_ball) return sums.volume > 0.5 * ball ? ball : 0.0;
+  return std::clamp(sums.volume, 0.0, std::max(0.0, std::min(ball, sums.polyhedron)));
 }
 
 }  // namespace
@@ -298,6 +331,32 @@ std::optional<double> sphere_polyhedron_overlap_located(const Eigen::Vector3d& c
                                                         std::span<const std::int32_t> face_offsets,
                                                         std::span<const std::int32_t> face_vertices) {
   return overlap(centre, radius, vertices, face_offsets, face_vertices, centre_inside ? 1 : 0);
+}
+
+std::optional<double> sphere_face_located_term(const Eigen::Vector3d& centre, double radius,
+                                               std::span<const Eigen::Vector3d> polygon) {
+  const auto n = static_cast<std::int32_t>(polygon.size());
+  if (!(radius > 0) || n < 3) return 0;
+  const double r2 = radius * radius;
+  Eigen::Vector3d lo = polygon[0], hi = polygon[0];
+  for (const Eigen::Vector3d& v : polygon) {
+    lo = lo.cwiseMin(v);
+    hi = hi.cwiseMax(v);
+  }
+  if ((centre.cwiseMax(lo).cwiseMin(hi) - centre).squaredNorm() >= r2) return 0;
+  const Ball b{radius, r2, r2 * radius,
+               1e-12 * std::max({centre.cwiseAbs().maxCoeff(), lo.cwiseAbs().maxCoeff(), hi.cwiseAbs().maxCoeff()})};
+  const auto vertex = [&](std::int32_t k) -> Eigen::Vector3d { return polygon[static_cast<std::size_t>(k)] - centre; };
+  FaceSums sums;
+  add_face(vertex, 0, n, b, true, false, sums);
+  if (sums.unsure) return std::nullopt;
+  return sums.volume;
+}
+
+double sphere_located_overlap(double radius, bool centre_inside, double face_terms) {
+  if (!(radius > 0)) return 0;
+  const double ball = ball_volume(radius);
+  return std::clamp(face_terms + (centre_inside ? ball : 0.0), 0.0, ball);
 }
 
 double sphere_tetrahedron_overlap(const Eigen::Vector3d& centre, double radius, const Eigen::Vector3d& a,

@@ -675,3 +675,68 @@ TEST(SpherePolyhedronOverlapLocated, ACentreOnAReachingFacePlaneAsksForTheWholeS
   EXPECT_EQ(overlap_located(none, Vector3d(0.5, 0.5, 0.5), r, true), ball);
   EXPECT_EQ(overlap_located(none, Vector3d(0.5, 0.5, 0.5), r, false), 0.0);
 }
+
+TEST(SpherePolyhedronOverlapLocated, FaceTermsSharedByTwoCellsMatchNumericalIntegration) {
+  using namespace located;
+  using vfe::kernels::sphere_face_located_term;
+  using vfe::kernels::sphere_located_overlap;
+  std::mt19937_64 rng(31);
+  std::uniform_real_distribution<double> u(0, 1), rad(0.2, 0.9);
+  // Face f of p as a polygon, in p's (outward) orientation or reversed.
+  const auto polygon = [](const Polyhedron& p, std::size_t f, bool reversed) {
+    std::vector<Vector3d> points;
+    for (std::int32_t k = p.offsets[f]; k < p.offsets[f + 1]; ++k) points.push_back(p.vertices[p.indices[k]]);
+    if (reversed) std::reverse(points.begin(), points.end());
+    return points;
+  };
+  int declined = 0, shared_reached = 0;
+  const int trials = 40;
+  for (int trial = 0; trial < trials; ++trial) {
+    // Two skew hexahedra stacked along z: the lower one's top face (face 1) is the upper
+    // one's bottom face (face 0), reversed.
+    const double x0 = 0.4 * u(rng), x1 = 0.6 + 0.6 * u(rng), y0 = 0.4 * u(rng), y1 = 0.6 + 0.6 * u(rng);
+    const Matrix3d m = random_map(rng);
+    const Polyhedron lower = hexahedron(frustum(x0, x1, y0, y1, 0, 0.5, m, Vector3d::Zero()));
+    const Polyhedron upper = hexahedron(frustum(x0, x1, y0, y1, 0.5, 1, m, Vector3d::Zero()));
+    const double r = rad(rng), ball = ball_volume(r);
+    const Vector3d c = m * Vector3d(1.2 * u(rng) - 0.1, 1.2 * u(rng) - 0.1, 1.2 * u(rng) - 0.1);
+    const std::optional<double> shared = sphere_face_located_term(c, r, polygon(lower, 1, false));
+    const std::optional<double> shared_reversed = sphere_face_located_term(c, r, polygon(upper, 0, false));
+    if (!shared || !shared_reversed) {
+      ++declined;
+      continue;
+    }
+    shared_reached += *shared != 0;
+    // The other cell sees the face reversed: the negated term, to round-off.
+    ASSERT_NEAR(*shared_reversed, -*shared, 1e-14 * ball) << trial;
+    const auto cell_overlap = [&](const Polyhedron& p, std::size_t shared_face, double shared_term) {
+      double sum = 0;
+      for (std::size_t f = 0; f + 1 < p.offsets.size(); ++f) {
+        if (f == shared_face) {
+          sum += shared_term;
+          continue;
+        }
+        const std::optional<double> term = sphere_face_located_term(c, r, polygon(p, f, false));
+        if (!term) return std::optional<double>();
+        sum += *term;
+      }
+      return std::optional<double>(sphere_located_overlap(r, inside_convex(p, c), sum));
+    };
+    const std::optional<double> v_lower = cell_overlap(lower, 1, *shared), v_upper = cell_overlap(upper, 0, -*shared);
+    if (!v_lower || !v_upper) {
+      ++declined;
+      continue;
+    }
+    ASSERT_NEAR(*v_lower, integrated_overlap(lower, c, r), 1e-12 * ball) << trial;
+    ASSERT_NEAR(*v_upper, integrated_overlap(upper, c, r), 1e-12 * ball) << trial;
+    // The same as the located overlap of each cell's whole surface.
+    ASSERT_NEAR(*v_lower, overlap_located(lower, c, r, inside_convex(lower, c)).value(), 1e-14 * ball) << trial;
+  }
+  EXPECT_LT(declined, trials / 10);  // random centres are far from the edges
+  EXPECT_GT(shared_reached, trials / 4);  // the shared face mattered
+  // A face out of the ball's reach adds nothing; a centre on the face's plane has no term.
+  const Polyhedron cube = hexahedron(box_corners(Vector3d::Zero(), Vector3d::Ones()));
+  EXPECT_EQ(sphere_face_located_term(Vector3d(0.5, 0.5, 3), 0.3, polygon(cube, 0, false)), 0.0);
+  EXPECT_FALSE(sphere_face_located_term(Vector3d(0.5, 0.5, 0), 0.3, polygon(cube, 0, false)).has_value());
+  EXPECT_EQ(sphere_located_overlap(0.3, true, 0.0), ball_volume(0.3));
+}

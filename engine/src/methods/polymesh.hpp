@@ -33,11 +33,6 @@ void polymesh_points(const PolyContext& ctx, Scratch& s, const Particle& p, cons
 /// P_i+1). Both cells of a face see the same surface (the point-location one), so their
 /// overlaps with any body add up to that of their union.
 void cell_boundary(const PolyMesh& mesh, std::int64_t c, Scratch& s);
-/// The faces of cell c's boundary that may reach into the ball (centre, radius), in the
-/// layout of cell_boundary: a face whose plane lies farther from the centre than the radius
-/// and the face's warp (beyond rounding) is left out.
-void cell_boundary_near(const PolyMesh& mesh, std::int64_t c, const Eigen::Vector3d& centre, double radius,
-                        Scratch& s);
 
 /// True when cell c is an axis-aligned box (convex, every face in one of the six planes of
 /// its points' box); then box holds it.

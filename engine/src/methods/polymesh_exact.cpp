@@ -7,6 +7,7 @@
 #include <vfe/kernels/sphere_polyhedron_overlap.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <optional>
 
@@ -38,6 +39,50 @@ void append_face(const PolyMesh& mesh, std::int64_t c, std::int64_t f, Scratch& 
   }
 }
 
+/// Face f's term of the located sum (kernels::sphere_face_located_term) in its owner's
+/// orientation for the particle s.face_term_particle, computed on its first use: a warped
+/// face as its fan (apex, P_i, P_i+1), as cell_boundary gives it.
+const Scratch::FaceTerm& face_term(const PolyMesh& mesh, std::int64_t f, const Eigen::Vector3d& centre,
+                                   double radius, Scratch& s) {
+  Scratch::FaceTerm& term = s.face_terms[static_cast<std::size_t>(f)];
+  if (term.particle == s.face_term_particle) return term;
+  term = {s.face_term_particle, 0.0, true};
+  auto& points = s.cell_points;
+  points.clear();
+  for (const std::int64_t q : mesh.face(f)) points.push_back(mesh.points()[static_cast<std::size_t>(q)]);
+  if (mesh.face_plane_triangle(f) >= 0) {
+    const std::optional<double> v = kernels::sphere_face_located_term(centre, radius, points);
+    term.sure = v.has_value();
+    term.value = v.value_or(0.0);
+    return term;
+  }
+  const std::size_t n = points.size();
+  for (std::size_t i = 0; i < n && term.sure; ++i) {
+    const std::array<Eigen::Vector3d, 3> triangle{mesh.face_apex(f), points[i], points[i + 1 == n ? 0 : i + 1]};
+    const std::optional<double> v = kernels::sphere_face_located_term(centre, radius, triangle);
+    term.sure = v.has_value();
+    term.value += v.value_or(0.0);
+  }
+  return term;
+}
+
+/// Cell c's overlap by the located sum over its faces that may reach into the ball (a
+/// face whose plane lies farther from the centre than the radius and the face's warp,
+/// beyond rounding, is left out), each face's term shared with the cell across it; no
+/// value where a reaching face's term has none.
+std::optional<double> located_cell_overlap(const PolyMesh& mesh, std::int64_t c, const Eigen::Vector3d& centre,
+                                           double radius, bool centre_inside, Scratch& s) {
+  const double reach = radius + mesh.location_tolerance();
+  double sum = 0;
+  for (const std::int64_t f : mesh.cell_faces(c)) {
+    if (std::fabs(mesh.face_normal(f).dot(centre - mesh.face_centre(f))) > reach + mesh.face_warp(f)) continue;
+    const Scratch::FaceTerm& term = face_term(mesh, f, centre, radius, s);
+    if (!term.sure) return std::nullopt;
+    sum += mesh.owner(f) == c ? term.value : -term.value;
+  }
+  return kernels::sphere_located_overlap(radius, centre_inside, sum);
+}
+
 void clear_boundary(Scratch& s) {
   s.cell_points.clear();
   s.cell_face_points.clear();
@@ -51,15 +96,6 @@ void clear_boundary(Scratch& s) {
 void cell_boundary(const PolyMesh& mesh, std::int64_t c, Scratch& s) {
   clear_boundary(s);
   for (const std::int64_t f : mesh.cell_faces(c)) append_face(mesh, c, f, s);
-}
-
-void cell_boundary_near(const PolyMesh& mesh, std::int64_t c, const Eigen::Vector3d& centre, double radius,
-                        Scratch& s) {
-  clear_boundary(s);
-  const double reach = radius + mesh.location_tolerance();
-  for (const std::int64_t f : mesh.cell_faces(c))
-    if (std::fabs(mesh.face_normal(f).dot(centre - mesh.face_centre(f))) <= reach + mesh.face_warp(f))
-      append_face(mesh, c, f, s);
 }
 
 void polymesh_exact(const PolyContext& ctx, Scratch& s, const Particle& p) {
@@ -77,6 +113,9 @@ void polymesh_exact(const PolyContext& ctx, Scratch& s, const Particle& p) {
   s.sub_elements += static_cast<std::int64_t>(s.candidate_cells.size());
   double inside = 0;
   const bool located = mesh.inverted_tet_count() == 0;
+  if (s.face_terms.size() != static_cast<std::size_t>(mesh.face_count()))
+    s.face_terms.assign(static_cast<std::size_t>(mesh.face_count()), Scratch::FaceTerm{0, 0.0, true});
+  ++s.face_term_particle;  // the faces' terms of earlier particles are stale
   for (const std::int64_t cell : s.candidate_cells) {
     const Eigen::AlignedBox3d& box = mesh.cell_bounds(cell);
     if (box.squaredExteriorDistance(c) >= r2) continue;
@@ -92,11 +131,7 @@ void polymesh_exact(const PolyContext& ctx, Scratch& s, const Particle& p) {
       // Point location is exact on the same surface: it tells whether the centre is inside
       // (not where some tetrahedra are inverted: their union is not the bounded region).
       std::optional<double> located_volume;
-      if (located) {
-        cell_boundary_near(mesh, cell, c, r, s);
-        located_volume = kernels::sphere_polyhedron_overlap_located(c, r, cell == centre_cell, s.cell_points,
-                                                                    s.cell_face_offsets, s.cell_face_points);
-      }
+      if (located) located_volume = located_cell_overlap(mesh, cell, c, r, cell == centre_cell, s);
       if (located_volume) {
         ++s.located_cells;
         v = std::min(*located_volume, mesh.cell_volume(cell));

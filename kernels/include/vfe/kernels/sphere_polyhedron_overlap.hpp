@@ -49,6 +49,21 @@ std::optional<double> sphere_polyhedron_overlap_located(const Eigen::Vector3d& c
                                                         std::span<const std::int32_t> face_offsets,
                                                         std::span<const std::int32_t> face_vertices);
 
+/// The located sum face by face, for meshes whose cells share faces: one planar face's
+/// term (its vertices in order, right-hand normal pointing out of the cell it serves),
+/// 0 for a face that does not reach into the open ball. A cell's overlap is
+/// sphere_located_overlap of the sum of the terms of its faces (every face that reaches
+/// into the ball), the same as sphere_polyhedron_overlap_located's to round-off; the cell
+/// on the face's other side takes the term negated, so a face shared by two cut cells is
+/// computed once. No value where sphere_polyhedron_overlap_located gives none (the centre
+/// within rounding of the face's plane, or near one of its reaching edges' lines).
+std::optional<double> sphere_face_located_term(const Eigen::Vector3d& centre, double radius,
+                                               std::span<const Eigen::Vector3d> polygon);
+
+/// A located cell's overlap from the sum of its reaching faces' terms: the ball's volume
+/// if the centre is inside, plus the sum, clamped to [0, ball volume].
+double sphere_located_overlap(double radius, bool centre_inside, double face_terms);
+
 /// Volume of the ball intersected with the tetrahedron (a, b, c, d), either orientation;
 /// 0 for a flat tetrahedron.
 double sphere_tetrahedron_overlap(const Eigen::Vector3d& centre, double radius, const Eigen::Vector3d& a,
