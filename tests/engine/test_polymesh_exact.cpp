@@ -287,3 +287,52 @@ TEST(PolyMeshExact, HashBoxQueryFindsEveryOverlappingCellOnce) {
     ASSERT_EQ(found, expected) << trial;
   }
 }
+
+// exact finds a ball's cells by walking from the centre's cell across the faces the ball
+// reaches; a baffle (two boundary faces in one plane, here between the two cells of a
+// 2 x 1 x 1 block) stops that walk, so the cells beyond it come from the spatial hash.
+TEST(PolyMeshExact, ABallAcrossABaffleFindsTheCellsBeyondIt) {
+  // Points x fastest: (i, j, k) at index i + 3 (j + 2 k), i in 0..2.
+  std::vector<double> points;
+  for (int k = 0; k < 2; ++k)
+    for (int j = 0; j < 2; ++j)
+      for (int i = 0; i < 3; ++i) points.insert(points.end(), {double(i), double(j), double(k)});
+  const auto pid = [](int i, int j, int k) { return std::int64_t(i + 3 * (j + 2 * k)); };
+  std::vector<std::int64_t> offsets{0}, face_points, owner;
+  const auto face = [&](std::initializer_list<std::int64_t> f, std::int64_t cell) {
+    face_points.insert(face_points.end(), f);
+    offsets.push_back(std::int64_t(face_points.size()));
+    owner.push_back(cell);
+  };
+  for (int c = 0; c < 2; ++c) {  // every face of both cells on the boundary, outward
+    const int i0 = c, i1 = c + 1;
+    face({pid(i0, 0, 0), pid(i0, 0, 1), pid(i0, 1, 1), pid(i0, 1, 0)}, c);  // -x (cell 1's: the baffle)
+    face({pid(i1, 0, 0), pid(i1, 1, 0), pid(i1, 1, 1), pid(i1, 0, 1)}, c);  // +x (cell 0's: the baffle)
+    face({pid(i0, 0, 0), pid(i1, 0, 0), pid(i1, 0, 1), pid(i0, 0, 1)}, c);  // -y
+    face({pid(i0, 1, 0), pid(i0, 1, 1), pid(i1, 1, 1), pid(i1, 1, 0)}, c);  // +y
+    face({pid(i0, 0, 0), pid(i0, 1, 0), pid(i1, 1, 0), pid(i1, 0, 0)}, c);  // -z
+    face({pid(i0, 0, 1), pid(i1, 0, 1), pid(i1, 1, 1), pid(i0, 1, 1)}, c);  // +z
+  }
+  vfe::PolyMeshArrays arrays;
+  arrays.n_points = std::int64_t(points.size() / 3);
+  arrays.points = points.data();
+  arrays.n_faces = std::int64_t(owner.size());
+  arrays.face_offsets = offsets.data();
+  arrays.face_points = face_points.data();
+  arrays.owner = owner.data();
+  vfe::Engine e(arrays);
+  e.configure("method=exact lattice=0 outside=drop threads=1");
+  for (const double x : {0.9, 1.1}) {  // the centre on either side of the baffle
+    Particles one;
+    one.add(x, 0.5, 0.45, 0.3);
+    std::vector<double> f(2);
+    e.compute(one.view(), f);
+    const Eigen::Vector3d c(x, 0.5, 0.45);
+    EXPECT_NEAR(f[0], vfe::kernels::sphere_box_overlap(c, 0.3, Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(1, 1, 1)),
+                1e-14 * one.volume());
+    EXPECT_NEAR(f[1], vfe::kernels::sphere_box_overlap(c, 0.3, Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(2, 1, 1)),
+                1e-14 * one.volume());
+    EXPECT_GT(std::min(f[0], f[1]), 0.1 * one.volume());
+    EXPECT_EQ(e.last_report().dropped_volume, 0.0);
+  }
+}

@@ -58,6 +58,7 @@ struct Scratch {
   };
   std::vector<FaceTerm> face_terms;
   std::uint64_t face_term_particle = 0;
+  std::vector<std::uint64_t> cell_particle;  // polyMesh exact: the particle that took each cell (cell-sized)
   std::int64_t fast_path = 0, sub_elements = 0, outside_particles = 0;
   std::int64_t counted = 0;  ///< pmm: particles whose sub-elements were counted per octant
   std::int64_t lattice_particles = 0;  // polyMesh of box cells: particles the grid's driver took

@@ -108,17 +108,20 @@ void polymesh_exact(const PolyContext& ctx, Scratch& s, const Particle& p) {
     s.add(centre_cell, p.volume);
     return;
   }
-  const Eigen::Vector3d half = Eigen::Vector3d::Constant(r);
-  ctx.locator->hash().cells_in_box(Eigen::AlignedBox3d(c - half, c + half), s.candidate_cells);
-  s.sub_elements += static_cast<std::int64_t>(s.candidate_cells.size());
   double inside = 0;
   const bool located = mesh.inverted_tet_count() == 0;
   if (s.face_terms.size() != static_cast<std::size_t>(mesh.face_count()))
     s.face_terms.assign(static_cast<std::size_t>(mesh.face_count()), Scratch::FaceTerm{0, 0.0, true});
-  ++s.face_term_particle;  // the faces' terms of earlier particles are stale
-  for (const std::int64_t cell : s.candidate_cells) {
+  if (s.cell_particle.size() != static_cast<std::size_t>(mesh.cell_count()))
+    s.cell_particle.assign(static_cast<std::size_t>(mesh.cell_count()), 0);
+  // The faces' terms and the cells taken for earlier particles are stale.
+  const std::uint64_t particle = ++s.face_term_particle;
+  const auto taken = [&](std::int64_t cell) { return s.cell_particle[static_cast<std::size_t>(cell)] == particle; };
+  // Cell `cell`'s overlap into the deposits, once per particle.
+  const auto take = [&](std::int64_t cell) {
+    s.cell_particle[static_cast<std::size_t>(cell)] = particle;
+    ++s.sub_elements;
     const Eigen::AlignedBox3d& box = mesh.cell_bounds(cell);
-    if (box.squaredExteriorDistance(c) >= r2) continue;
     // A cell inside the ball gives its volume (OpenFOAM's, the volume of the same surface).
     const bool contained = (box.min() - c).cwiseAbs().cwiseMax((box.max() - c).cwiseAbs()).squaredNorm() <= r2;
     double v;
@@ -142,9 +145,44 @@ void polymesh_exact(const PolyContext& ctx, Scratch& s, const Particle& p) {
       }
     }
     if (v > 0) {
-      s.deposits.push_back({cell, v});  // candidates are distinct: no merge needed
+      s.deposits.push_back({cell, v});  // each cell is taken once: no merge needed
       inside += v;
     }
+  };
+  // The cells the ball overlaps, from the centre's cell across the faces whose planes the
+  // ball reaches: the part of the ball in the mesh is connected when no boundary face
+  // reaches into it, and then the walk finds every cell of it (s.candidate_cells is its
+  // queue). A boundary face in reach (the mesh's edge, or a baffle that may cut the ball),
+  // or volume missing beyond round-off, takes the cells whose bounds reach the ball's box
+  // from the hash as well.
+  bool search = centre_cell < 0;
+  if (!search) {
+    auto& queue = s.candidate_cells;
+    queue.assign(1, centre_cell);
+    s.cell_particle[static_cast<std::size_t>(centre_cell)] = particle;
+    const double reach = r + mesh.location_tolerance();
+    for (std::size_t i = 0; i < queue.size(); ++i) {
+      const std::int64_t cell = queue[i];
+      take(cell);
+      for (const std::int64_t f : mesh.cell_faces(cell)) {
+        if (std::fabs(mesh.face_normal(f).dot(c - mesh.face_centre(f))) > reach + mesh.face_warp(f)) continue;
+        const std::int64_t next = mesh.across(f, cell);
+        if (next < 0) {
+          search = true;
+          continue;
+        }
+        if (taken(next) || mesh.cell_bounds(next).squaredExteriorDistance(c) >= r2) continue;
+        s.cell_particle[static_cast<std::size_t>(next)] = particle;  // queued
+        queue.push_back(next);
+      }
+    }
+    search = search || p.volume - inside > 1e-12 * p.volume;
+  }
+  if (search) {
+    const Eigen::Vector3d half = Eigen::Vector3d::Constant(r);
+    ctx.locator->hash().cells_in_box(Eigen::AlignedBox3d(c - half, c + half), s.candidate_cells);
+    for (const std::int64_t cell : s.candidate_cells)
+      if (!taken(cell) && mesh.cell_bounds(cell).squaredExteriorDistance(c) < r2) take(cell);
   }
   // What the cells do not hold lies beyond the mesh (beyond round-off).
   const double rest = p.volume - inside;
