@@ -49,16 +49,17 @@ struct Scratch {
   std::vector<std::int32_t> cell_face_offsets, cell_face_points;
   std::vector<Eigen::Vector3d> mapped_points;    // exact shapes: a cell's vertices in the ellipsoid's frame
   // polyMesh exact: each face's term of the located sum (owner's orientation) for the
-  // particle numbered face_term_particle, so that a face two cut cells share is computed
-  // once (face-sized; entries of earlier particles are stale, none is ever cleared)
+  // particle numbered poly_particle, so that a face two cut cells share is computed once
+  // (face-sized), and the particle that last marked each cell (cell-sized): entries of
+  // earlier particles are stale, none is ever cleared (walk_ball_cells)
   struct FaceTerm {
     std::uint64_t particle;
     double value;
     bool sure;  ///< false: the centre lies within rounding of the face's plane or an edge line
   };
   std::vector<FaceTerm> face_terms;
-  std::uint64_t face_term_particle = 0;
-  std::vector<std::uint64_t> cell_particle;  // polyMesh exact: the particle that took each cell (cell-sized)
+  std::uint64_t poly_particle = 0;
+  std::vector<std::uint64_t> cell_particle;
   std::int64_t fast_path = 0, sub_elements = 0, outside_particles = 0;
   std::int64_t counted = 0;  ///< pmm: particles whose sub-elements were counted per octant
   std::int64_t lattice_particles = 0;  // polyMesh of box cells: particles the grid's driver took

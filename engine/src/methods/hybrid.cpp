@@ -4,6 +4,7 @@
 #include "methods/hybrid.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 namespace vfe::detail {
 
@@ -16,7 +17,7 @@ namespace {
 // squares, every constant >= 0 (a work measure that others explain gets 0).
 constexpr GridCosts kCartesian{36, 2.5, 0.19, 106, 56, 22.4, 11.2};
 constexpr GridCosts kRectilinear{171, 21, 21, 115, 49, 0, 0};
-constexpr PolyCosts kPolyhedral{0, 62, 412, 0, 0, 0, 242};
+constexpr PolyCosts kPolyhedral{0, 24.5, 298, 0, 0, 808, 42};
 
 /// Cells from lo to hi along an axis of n cells, clamped to the mesh unless it wraps (exact's box of cells).
 std::int64_t cells_of_box(std::int64_t lo, std::int64_t hi, std::int64_t n, bool periodic) {
@@ -108,6 +109,7 @@ PathCosts path_costs(const PolyContext& ctx, Scratch& s, const Particle& p, bool
   const Eigen::Vector3d& c = p.centre;
   const double r = p.radius, r2 = r * r;
   const std::int64_t centre_cell = ctx.locator->locate(c);
+  k.centre_cell = centre_cell;
   if (ctx.opts.fast_path && centre_cell >= 0 && ball_inside_cell(mesh, centre_cell, c, r)) {
     k.fast = true;
     k.fast_cell = centre_cell;
@@ -117,15 +119,22 @@ PathCosts path_costs(const PolyContext& ctx, Scratch& s, const Particle& p, bool
   const std::int64_t cell = centre_cell >= 0 ? centre_cell : ctx.locator->nearest_cell(c);
   const kernels::ParticleTemplate& t = ctx.bank.template_for(2 * r, mesh.cell_volume(cell));
   k.pmm_template = &t;
-  const Eigen::Vector3d half = Eigen::Vector3d::Constant(r);
-  ctx.locator->hash().cells_in_box(Eigen::AlignedBox3d(c - half, c + half), s.candidate_cells);
+  // exact's cells: those its walk finds, or where a boundary face is in reach the hash's
+  // near the ball.
+  std::uint64_t particle = 0;
+  if (centre_cell < 0 || !walk_ball_cells(mesh, s, c, r, centre_cell, particle)) {
+    const Eigen::Vector3d half = Eigen::Vector3d::Constant(r);
+    ctx.locator->hash().cells_in_box(Eigen::AlignedBox3d(c - half, c + half), s.candidate_cells);
+  }
   const double candidates = double(s.candidate_cells.size());
   k.exact_cells = static_cast<std::int64_t>(s.candidate_cells.size());
   k.pmm_points = static_cast<std::int64_t>(t.size());
   k.pmm = m.pmm_particle + double(k.pmm_points) * m.pmm_point + candidates * m.pmm_candidate;
   k.exact = m.exact_particle + candidates * m.exact_candidate;
   // polymesh_exact's work per candidate: nothing beyond the ball's reach or inside it, the
-  // closed form on a box, the polyhedron overlap (about linear in its face points) otherwise.
+  // closed form on a box, otherwise the located sum over the faces whose planes the ball
+  // reaches (about linear in their points; a warped face is the fan of its triangles).
+  const double reach = r + mesh.location_tolerance();
   for (const std::int64_t cand : s.candidate_cells) {
     if (!full && k.exact > k.pmm) break;
     const Eigen::AlignedBox3d& box = mesh.cell_bounds(cand);
@@ -138,7 +147,9 @@ PathCosts path_costs(const PolyContext& ctx, Scratch& s, const Particle& p, bool
       continue;
     }
     std::int64_t points = 0;
-    for (const std::int64_t f : mesh.cell_faces(cand)) points += static_cast<std::int64_t>(mesh.face(f).size());
+    for (const std::int64_t f : mesh.cell_faces(cand))
+      if (std::fabs(mesh.face_normal(f).dot(c - mesh.face_centre(f))) <= reach + mesh.face_warp(f))
+        points += static_cast<std::int64_t>(mesh.face(f).size()) * (mesh.face_plane_triangle(f) >= 0 ? 1 : 3);
     k.face_points += points;
     k.exact += double(points) * m.exact_face_point;
   }
@@ -148,14 +159,13 @@ PathCosts path_costs(const PolyContext& ctx, Scratch& s, const Particle& p, bool
 namespace {
 
 /// The path the costs choose for sphere p, counted; ties go to exact (the more accurate).
-/// A non-spherical particle takes pmm.
-template <class MeshContext>
-void take_cheapest(const MeshContext& ctx, Scratch& s, const Particle& p,
-                   void (*pmm)(const MeshContext&, Scratch&, const Particle&),
-                   void (*exact)(const MeshContext&, Scratch&, const Particle&)) {
+/// A non-spherical particle takes pmm. pmm(q, k) and exact(q, k) run the path on q, with
+/// what the model found (k; null for a non-spherical particle).
+template <class MeshContext, class Pmm, class Exact>
+void take_cheapest(const MeshContext& ctx, Scratch& s, const Particle& p, const Pmm& pmm, const Exact& exact) {
   if (p.shaped) {
     ++s.auto_pmm;
-    pmm(ctx, s, p);
+    pmm(p, nullptr);
     return;
   }
   const PathCosts k = path_costs(ctx, s, p);
@@ -167,11 +177,17 @@ void take_cheapest(const MeshContext& ctx, Scratch& s, const Particle& p,
     ++s.auto_pmm;
     Particle q = p;
     q.shape_template = k.pmm_template;  // the same template the bank gives it, not looked up again
-    pmm(ctx, s, q);
+    pmm(q, &k);
   } else {
     ++s.auto_exact;
-    exact(ctx, s, p);
+    exact(p, &k);
   }
+}
+
+/// A path that needs nothing of the model's findings, as take_cheapest calls it.
+template <class MeshContext>
+auto plain(const MeshContext& ctx, Scratch& s, void (*path)(const MeshContext&, Scratch&, const Particle&)) {
+  return [&ctx, &s, path](const Particle& q, const PathCosts*) { path(ctx, s, q); };
 }
 
 }  // namespace
@@ -185,13 +201,18 @@ void grid_pmm(const Context& ctx, Scratch& s, const Particle& p) {
 void auto_particle(const Context& ctx, Scratch& s, const Particle& p) {
   const auto add = [&](std::int64_t cell, double v) { s.deposits.push_back({cell, v}); };
   if (!p.shaped && auto_sphere_quick(PmmQuick(ctx), s, p, add)) return;
-  take_cheapest(ctx, s, p, grid_pmm, exact_particle);
+  take_cheapest(ctx, s, p, plain(ctx, s, grid_pmm), plain(ctx, s, exact_particle));
 }
 void rectilinear_auto(const RectilinearContext& ctx, Scratch& s, const Particle& p) {
-  take_cheapest(ctx, s, p, rectilinear_pmm, rectilinear_exact);
+  take_cheapest(ctx, s, p, plain(ctx, s, rectilinear_pmm), plain(ctx, s, rectilinear_exact));
 }
 void polymesh_auto(const PolyContext& ctx, Scratch& s, const Particle& p) {
-  take_cheapest(ctx, s, p, polymesh_pmm, polymesh_exact);
+  // The centre's cell, located once by the model.
+  const auto pmm = [&](const Particle& q, const PathCosts* k) {
+    k ? polymesh_pmm_at(ctx, s, q, k->centre_cell) : polymesh_pmm(ctx, s, q);
+  };
+  const auto exact = [&](const Particle& q, const PathCosts* k) { polymesh_exact_at(ctx, s, q, k->centre_cell); };
+  take_cheapest(ctx, s, p, pmm, exact);
 }
 
 }  // namespace vfe::detail

@@ -54,6 +54,7 @@ struct PathCosts {
   std::int64_t exact_cells = 0; ///< exact's cells (polyMesh: the candidates, also pmm's)
   bool exact_octants = false;   ///< Cartesian grid: the ball spans at most two cells per axis (exact's octant call)
   std::int64_t box_cells = 0, face_points = 0;  ///< polyMesh: exact's cut box cells, cut cells' face points
+  std::int64_t centre_cell = -1;  ///< polyMesh: the cell holding the centre (-1: outside the mesh)
 };
 PathCosts path_costs(const Context& ctx, Scratch& s, const Particle& p);
 PathCosts path_costs(const RectilinearContext& ctx, Scratch& s, const Particle& p);

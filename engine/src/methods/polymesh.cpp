@@ -647,7 +647,10 @@ void polymesh_direct(const PolyContext& ctx, Scratch& s, const Particle& p) {
 }
 
 void polymesh_pmm(const PolyContext& ctx, Scratch& s, const Particle& p) {
-  const std::int64_t centre_cell = ctx.locator->locate(p.centre);
+  polymesh_pmm_at(ctx, s, p, ctx.locator->locate(p.centre));
+}
+
+void polymesh_pmm_at(const PolyContext& ctx, Scratch& s, const Particle& p, std::int64_t centre_cell) {
   const kernels::ParticleTemplate* t = p.shape_template;
   if (!t) {  // auto sizes a sphere's template by the cell holding its centre
     const std::int64_t cell = centre_cell >= 0 ? centre_cell : ctx.locator->nearest_cell(p.centre);

@@ -54,4 +54,19 @@ void polymesh_porous_cube(const PolyContext& ctx, Scratch& s, const Particle& p)
 /// test; what lies beyond the mesh follows the outside policy.
 void polymesh_exact(const PolyContext& ctx, Scratch& s, const Particle& p);
 
+/// polymesh_pmm and polymesh_exact for a sphere whose centre's cell is known (centre_cell;
+/// -1 outside the mesh): method=auto has located it.
+void polymesh_pmm_at(const PolyContext& ctx, Scratch& s, const Particle& p, std::int64_t centre_cell);
+void polymesh_exact_at(const PolyContext& ctx, Scratch& s, const Particle& p, std::int64_t centre_cell);
+
+/// The cells whose bounds reach the ball (centre, radius) that a walk finds from
+/// centre_cell (>= 0) across the faces whose planes the ball reaches, into
+/// s.candidate_cells, each marked in s.cell_particle with a new particle number (returned
+/// in `particle`; s.face_terms share it). The part of the ball in the mesh is connected when
+/// no boundary face reaches into it, and then the walk finds every cell that overlaps the
+/// ball: returns false when a boundary face is in reach (the mesh's edge, or a baffle that
+/// may cut the ball), where the cells beyond it may be missing.
+bool walk_ball_cells(const PolyMesh& mesh, Scratch& s, const Eigen::Vector3d& centre, double radius,
+                     std::int64_t centre_cell, std::uint64_t& particle);
+
 }  // namespace vfe::detail

@@ -40,13 +40,13 @@ void append_face(const PolyMesh& mesh, std::int64_t c, std::int64_t f, Scratch& 
 }
 
 /// Face f's term of the located sum (kernels::sphere_face_located_term) in its owner's
-/// orientation for the particle s.face_term_particle, computed on its first use: a warped
+/// orientation for the particle s.poly_particle, computed on its first use: a warped
 /// face as its fan (apex, P_i, P_i+1), as cell_boundary gives it.
 const Scratch::FaceTerm& face_term(const PolyMesh& mesh, std::int64_t f, const Eigen::Vector3d& centre,
                                    double radius, Scratch& s) {
   Scratch::FaceTerm& term = s.face_terms[static_cast<std::size_t>(f)];
-  if (term.particle == s.face_term_particle) return term;
-  term = {s.face_term_particle, 0.0, true};
+  if (term.particle == s.poly_particle) return term;
+  term = {s.poly_particle, 0.0, true};
   auto& points = s.cell_points;
   points.clear();
   for (const std::int64_t q : mesh.face(f)) points.push_back(mesh.points()[static_cast<std::size_t>(q)]);
@@ -98,11 +98,54 @@ void cell_boundary(const PolyMesh& mesh, std::int64_t c, Scratch& s) {
   for (const std::int64_t f : mesh.cell_faces(c)) append_face(mesh, c, f, s);
 }
 
+namespace {
+
+/// A new particle number for s.face_terms and s.cell_particle (sized for the mesh here):
+/// what they hold for earlier particles is stale from then on.
+std::uint64_t next_particle(const PolyMesh& mesh, Scratch& s) {
+  if (s.face_terms.size() != static_cast<std::size_t>(mesh.face_count()))
+    s.face_terms.assign(static_cast<std::size_t>(mesh.face_count()), Scratch::FaceTerm{0, 0.0, true});
+  if (s.cell_particle.size() != static_cast<std::size_t>(mesh.cell_count()))
+    s.cell_particle.assign(static_cast<std::size_t>(mesh.cell_count()), 0);
+  return ++s.poly_particle;
+}
+
+}  // namespace
+
+bool walk_ball_cells(const PolyMesh& mesh, Scratch& s, const Eigen::Vector3d& centre, double radius,
+                     std::int64_t centre_cell, std::uint64_t& particle) {
+  particle = next_particle(mesh, s);
+  auto& queue = s.candidate_cells;
+  queue.assign(1, centre_cell);
+  s.cell_particle[static_cast<std::size_t>(centre_cell)] = particle;
+  const double reach = radius + mesh.location_tolerance(), r2 = radius * radius;
+  bool complete = true;
+  for (std::size_t i = 0; i < queue.size(); ++i) {
+    const std::int64_t cell = queue[i];
+    for (const std::int64_t f : mesh.cell_faces(cell)) {
+      if (std::fabs(mesh.face_normal(f).dot(centre - mesh.face_centre(f))) > reach + mesh.face_warp(f)) continue;
+      const std::int64_t next = mesh.across(f, cell);
+      if (next < 0) {
+        complete = false;
+        continue;
+      }
+      std::uint64_t& mark = s.cell_particle[static_cast<std::size_t>(next)];
+      if (mark == particle || mesh.cell_bounds(next).squaredExteriorDistance(centre) >= r2) continue;
+      mark = particle;
+      queue.push_back(next);
+    }
+  }
+  return complete;
+}
+
 void polymesh_exact(const PolyContext& ctx, Scratch& s, const Particle& p) {
+  polymesh_exact_at(ctx, s, p, ctx.locator->locate(p.centre));
+}
+
+void polymesh_exact_at(const PolyContext& ctx, Scratch& s, const Particle& p, std::int64_t centre_cell) {
   const PolyMesh& mesh = ctx.locator->mesh();
   const Eigen::Vector3d& c = p.centre;
   const double r = p.radius, r2 = r * r;
-  const std::int64_t centre_cell = ctx.locator->locate(c);
   if (ctx.opts.fast_path && centre_cell >= 0 && ball_inside_cell(mesh, centre_cell, c, r)) {
     ++s.fast_path;
     s.add(centre_cell, p.volume);
@@ -110,16 +153,8 @@ void polymesh_exact(const PolyContext& ctx, Scratch& s, const Particle& p) {
   }
   double inside = 0;
   const bool located = mesh.inverted_tet_count() == 0;
-  if (s.face_terms.size() != static_cast<std::size_t>(mesh.face_count()))
-    s.face_terms.assign(static_cast<std::size_t>(mesh.face_count()), Scratch::FaceTerm{0, 0.0, true});
-  if (s.cell_particle.size() != static_cast<std::size_t>(mesh.cell_count()))
-    s.cell_particle.assign(static_cast<std::size_t>(mesh.cell_count()), 0);
-  // The faces' terms and the cells taken for earlier particles are stale.
-  const std::uint64_t particle = ++s.face_term_particle;
-  const auto taken = [&](std::int64_t cell) { return s.cell_particle[static_cast<std::size_t>(cell)] == particle; };
-  // Cell `cell`'s overlap into the deposits, once per particle.
+  // Cell `cell`'s overlap into the deposits.
   const auto take = [&](std::int64_t cell) {
-    s.cell_particle[static_cast<std::size_t>(cell)] = particle;
     ++s.sub_elements;
     const Eigen::AlignedBox3d& box = mesh.cell_bounds(cell);
     // A cell inside the ball gives its volume (OpenFOAM's, the volume of the same surface).
@@ -149,40 +184,25 @@ void polymesh_exact(const PolyContext& ctx, Scratch& s, const Particle& p) {
       inside += v;
     }
   };
-  // The cells the ball overlaps, from the centre's cell across the faces whose planes the
-  // ball reaches: the part of the ball in the mesh is connected when no boundary face
-  // reaches into it, and then the walk finds every cell of it (s.candidate_cells is its
-  // queue). A boundary face in reach (the mesh's edge, or a baffle that may cut the ball),
-  // or volume missing beyond round-off, takes the cells whose bounds reach the ball's box
-  // from the hash as well.
+  // The cells the walk finds from the centre's cell; the hash's cells whose bounds reach
+  // the ball's box as well where the walk may have missed some (a boundary face in reach,
+  // or volume missing beyond round-off).
+  std::uint64_t particle = 0;
   bool search = centre_cell < 0;
   if (!search) {
-    auto& queue = s.candidate_cells;
-    queue.assign(1, centre_cell);
-    s.cell_particle[static_cast<std::size_t>(centre_cell)] = particle;
-    const double reach = r + mesh.location_tolerance();
-    for (std::size_t i = 0; i < queue.size(); ++i) {
-      const std::int64_t cell = queue[i];
-      take(cell);
-      for (const std::int64_t f : mesh.cell_faces(cell)) {
-        if (std::fabs(mesh.face_normal(f).dot(c - mesh.face_centre(f))) > reach + mesh.face_warp(f)) continue;
-        const std::int64_t next = mesh.across(f, cell);
-        if (next < 0) {
-          search = true;
-          continue;
-        }
-        if (taken(next) || mesh.cell_bounds(next).squaredExteriorDistance(c) >= r2) continue;
-        s.cell_particle[static_cast<std::size_t>(next)] = particle;  // queued
-        queue.push_back(next);
-      }
-    }
+    search = !walk_ball_cells(mesh, s, c, r, centre_cell, particle);
+    for (const std::int64_t cell : s.candidate_cells) take(cell);
     search = search || p.volume - inside > 1e-12 * p.volume;
+  } else {
+    particle = next_particle(mesh, s);
   }
   if (search) {
     const Eigen::Vector3d half = Eigen::Vector3d::Constant(r);
     ctx.locator->hash().cells_in_box(Eigen::AlignedBox3d(c - half, c + half), s.candidate_cells);
     for (const std::int64_t cell : s.candidate_cells)
-      if (!taken(cell) && mesh.cell_bounds(cell).squaredExteriorDistance(c) < r2) take(cell);
+      if (s.cell_particle[static_cast<std::size_t>(cell)] != particle &&
+          mesh.cell_bounds(cell).squaredExteriorDistance(c) < r2)
+        take(cell);
   }
   // What the cells do not hold lies beyond the mesh (beyond round-off).
   const double rest = p.volume - inside;
