@@ -99,7 +99,7 @@ class SubElements {
     if (s.poly_local.size() != cells) s.poly_local.assign(cells, -1);
     if (s.poly_box_corners.size() != 2 * cells) s.poly_box_corners.assign(2 * cells, -2);
     // About 8 sub-elements a bin (at most 12^3 bins); one bin for small templates.
-    m_ = static_cast<int>(std::clamp(std::cbrt(double(points) / 8.0), 1.0, 12.0));
+    m_ = points < 64 ? 1 : static_cast<int>(std::clamp(std::cbrt(double(points) / 8.0), 1.0, 12.0));
     h_ = 2 * half / m_;
     inv_h_ = m_ / (2 * half);
     margin_ = 1e-9 * h_ + mesh_.location_tolerance();
@@ -219,6 +219,7 @@ class SubElements {
   /// margin), which the plain locator then takes.
   std::int64_t bin(const Eigen::Vector3d& x) const {
     if (!box_.contains(x)) return -1;
+    if (m_ == 1) return 0;
     std::int64_t i[3];
     for (int d = 0; d < 3; ++d)
       i[d] = std::min<std::int64_t>(static_cast<std::int64_t>((x[d] - box_.min()[d]) * inv_h_), m_ - 1);
@@ -281,7 +282,7 @@ class SubElements {
         const double deep_limit = -mesh_.face_warp(f) - tol;
         // The ball's highest point above the plane, with a bound on the rounding of the
         // walk's dot products (a few ulps of the lengths involved).
-        const double offset = (p_.centre - centre).norm();
+        const double offset = (p_.centre - centre).cwiseAbs().sum();  // >= the distance, no root
         if (normal.dot(p_.centre - centre) + half_ + 1e-12 * (offset + half_) < deep_limit) continue;
         s_.poly_faces.push_back(
             {normal, centre, mesh_.cell_face_reach(base + static_cast<std::int64_t>(k)) + tol, deep_limit,
