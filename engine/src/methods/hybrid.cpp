@@ -122,7 +122,9 @@ PathCosts path_costs(const PolyContext& ctx, Scratch& s, const Particle& p, bool
   // exact's cells: those its walk finds, or where a boundary face is in reach the hash's
   // near the ball.
   std::uint64_t particle = 0;
-  if (centre_cell < 0 || !walk_ball_cells(mesh, s, c, r, centre_cell, particle)) {
+  if (centre_cell >= 0 && walk_ball_cells(mesh, s, c, r, centre_cell, particle)) {
+    k.walked = particle;
+  } else {
     const Eigen::Vector3d half = Eigen::Vector3d::Constant(r);
     ctx.locator->hash().cells_in_box(Eigen::AlignedBox3d(c - half, c + half), s.candidate_cells);
   }
@@ -211,7 +213,9 @@ void polymesh_auto(const PolyContext& ctx, Scratch& s, const Particle& p) {
   const auto pmm = [&](const Particle& q, const PathCosts* k) {
     k ? polymesh_pmm_at(ctx, s, q, k->centre_cell) : polymesh_pmm(ctx, s, q);
   };
-  const auto exact = [&](const Particle& q, const PathCosts* k) { polymesh_exact_at(ctx, s, q, k->centre_cell); };
+  const auto exact = [&](const Particle& q, const PathCosts* k) {
+    polymesh_exact_at(ctx, s, q, k->centre_cell, k->walked);
+  };
   take_cheapest(ctx, s, p, pmm, exact);
 }
 

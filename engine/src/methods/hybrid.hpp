@@ -55,6 +55,9 @@ struct PathCosts {
   bool exact_octants = false;   ///< Cartesian grid: the ball spans at most two cells per axis (exact's octant call)
   std::int64_t box_cells = 0, face_points = 0;  ///< polyMesh: exact's cut box cells, cut cells' face points
   std::int64_t centre_cell = -1;  ///< polyMesh: the cell holding the centre (-1: outside the mesh)
+  /// polyMesh: when exact's walk found every cell of the ball, the particle number it gave
+  /// (s.candidate_cells hold its cells until the next walk or search), else 0
+  std::uint64_t walked = 0;
 };
 PathCosts path_costs(const Context& ctx, Scratch& s, const Particle& p);
 PathCosts path_costs(const RectilinearContext& ctx, Scratch& s, const Particle& p);

@@ -55,9 +55,12 @@ void polymesh_porous_cube(const PolyContext& ctx, Scratch& s, const Particle& p)
 void polymesh_exact(const PolyContext& ctx, Scratch& s, const Particle& p);
 
 /// polymesh_pmm and polymesh_exact for a sphere whose centre's cell is known (centre_cell;
-/// -1 outside the mesh): method=auto has located it.
+/// -1 outside the mesh): method=auto has located it. walked: s.candidate_cells already
+/// holds what walk_ball_cells found for this sphere, and it found every cell (it returned
+/// true; particle: the number it gave), so exact need not walk again.
 void polymesh_pmm_at(const PolyContext& ctx, Scratch& s, const Particle& p, std::int64_t centre_cell);
-void polymesh_exact_at(const PolyContext& ctx, Scratch& s, const Particle& p, std::int64_t centre_cell);
+void polymesh_exact_at(const PolyContext& ctx, Scratch& s, const Particle& p, std::int64_t centre_cell,
+                       std::uint64_t walked = 0);
 
 /// The cells whose bounds reach the ball (centre, radius) that a walk finds from
 /// centre_cell (>= 0) across the faces whose planes the ball reaches, into

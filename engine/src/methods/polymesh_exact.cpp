@@ -142,7 +142,8 @@ void polymesh_exact(const PolyContext& ctx, Scratch& s, const Particle& p) {
   polymesh_exact_at(ctx, s, p, ctx.locator->locate(p.centre));
 }
 
-void polymesh_exact_at(const PolyContext& ctx, Scratch& s, const Particle& p, std::int64_t centre_cell) {
+void polymesh_exact_at(const PolyContext& ctx, Scratch& s, const Particle& p, std::int64_t centre_cell,
+                       std::uint64_t walked) {
   const PolyMesh& mesh = ctx.locator->mesh();
   const Eigen::Vector3d& c = p.centre;
   const double r = p.radius, r2 = r * r;
@@ -187,10 +188,10 @@ void polymesh_exact_at(const PolyContext& ctx, Scratch& s, const Particle& p, st
   // The cells the walk finds from the centre's cell; the hash's cells whose bounds reach
   // the ball's box as well where the walk may have missed some (a boundary face in reach,
   // or volume missing beyond round-off).
-  std::uint64_t particle = 0;
+  std::uint64_t particle = walked;
   bool search = centre_cell < 0;
   if (!search) {
-    search = !walk_ball_cells(mesh, s, c, r, centre_cell, particle);
+    if (walked == 0) search = !walk_ball_cells(mesh, s, c, r, centre_cell, particle);
     for (const std::int64_t cell : s.candidate_cells) take(cell);
     search = search || p.volume - inside > 1e-12 * p.volume;
   } else {
