@@ -3,6 +3,7 @@
 #include <vfe/kernels/octant_split.hpp>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 
 namespace vfe::detail {
@@ -66,6 +67,8 @@ TemplateBank TemplateCache::prepare(const Options& opts, double d_min, double d_
     for (std::int64_t k = bank.first_step; k <= last; ++k) bank_.push_back(&get(opts, auto_particle_count(k, bank.rule)));
   }
   bank.templates = bank_;
+  static std::atomic<std::uint64_t> banks{0};  // every bank of every engine: its own id
+  bank.id = ++banks;
   return bank;
 }
 

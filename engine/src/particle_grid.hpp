@@ -37,12 +37,23 @@ inline std::int64_t auto_particle_count(std::int64_t step, const AutoRule& rule)
   return std::min(5 * auto_ladder_value(step), std::max<std::int64_t>(rule.max_grid, 1));
 }
 
+/// The last two templates one thread's bank gave, with their spheres' diameters and cells'
+/// volumes (TemplateBank::template_for): polydisperse particles come in few sizes, and the
+/// auto rule costs a cube root and a square root per sphere.
+struct TemplateMemo {
+  std::uint64_t bank = 0;  ///< TemplateBank::id of the entries (0: none)
+  double diameter[2] = {0, 0}, cell_volume[2] = {0, 0};
+  const kernels::ParticleTemplate* templates[2] = {nullptr, nullptr};
+  unsigned next = 0;  ///< the entry to replace
+};
+
 /// PMM's templates for this compute: one fixed size, or one per auto step.
 struct TemplateBank {
   std::span<const kernels::ParticleTemplate* const> templates;
   std::int64_t first_step = 0;  ///< auto step of templates[0]
   bool fixed = false;           ///< particle_grid given: templates[0] for every particle
   AutoRule rule;
+  std::uint64_t id = 0;         ///< unique per bank prepared (TemplateMemo's key)
 
   /// The template of a sphere of this diameter in a cell of this volume.
   const kernels::ParticleTemplate& template_for(double diameter, double cell_volume) const {
@@ -50,6 +61,25 @@ struct TemplateBank {
     const std::int64_t k = auto_step(diameter, cell_volume, rule) - first_step;
     const auto last = static_cast<std::int64_t>(templates.size()) - 1;
     return *templates[static_cast<std::size_t>(k < 0 ? 0 : (k > last ? last : k))];
+  }
+  /// The same, remembered in the calling thread's memo for the next sphere of the same
+  /// size in a cell of the same volume.
+  const kernels::ParticleTemplate& template_for(double diameter, double cell_volume, TemplateMemo& memo) const {
+    if (templates.size() == 1) return *templates.front();
+    if (memo.bank != id) {
+      memo = TemplateMemo{};
+      memo.bank = id;
+    }
+    for (int i = 0; i < 2; ++i)
+      if (memo.templates[i] && memo.diameter[i] == diameter && memo.cell_volume[i] == cell_volume)
+        return *memo.templates[i];
+    const kernels::ParticleTemplate& t = template_for(diameter, cell_volume);
+    const unsigned i = memo.next;
+    memo.next ^= 1;
+    memo.diameter[i] = diameter;
+    memo.cell_volume[i] = cell_volume;
+    memo.templates[i] = &t;
+    return t;
   }
 };
 

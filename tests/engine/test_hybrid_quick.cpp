@@ -17,6 +17,33 @@
 namespace vfe::detail {
 namespace {
 
+// The bank's memo (the last two templates a thread was given) gives every sphere the
+// template the auto rule gives it: spheres of a few sizes in cells of a few volumes, in
+// random order, and a second bank, whose id makes the memo's entries stale.
+TEST(TemplateMemo, GivesTheAutoRulesTemplate) {
+  Options opts;
+  TemplateCache cache;
+  std::mt19937_64 rng(5);
+  const double diameters[] = {0.0006, 0.001, 0.00100000001, 0.0012}, volumes[] = {8e-9, 1e-9, 2.7e-11};
+  TemplateMemo memo;
+  int changed = 0;
+  const kernels::ParticleTemplate* previous = nullptr;
+  for (int round = 0; round < 2; ++round) {
+    // Each prepare gives a new bank (and id), over the same or other sizes.
+    const TemplateBank bank = cache.prepare(opts, 0.0006, round == 0 ? 0.0012 : 0.001, 2.7e-11, 8e-9);
+    ASSERT_GT(bank.templates.size(), 2u);
+    for (int i = 0; i < 4000; ++i) {
+      const double d = diameters[rng() % (round == 0 ? 4 : 3)], v = volumes[rng() % 3];
+      const kernels::ParticleTemplate& t = bank.template_for(d, v, memo);
+      ASSERT_EQ(&t, &bank.template_for(d, v)) << "d " << d << " v " << v;
+      changed += &t != previous;
+      previous = &t;
+    }
+    EXPECT_EQ(memo.bank, bank.id);
+  }
+  EXPECT_GT(changed, 1000);  // the sizes alternate: both entries and their replacement served
+}
+
 TEST(HybridQuick, TakesTheFullModelsPathForEverySphereItTakes) {
   Options opts;
   TemplateCache cache;

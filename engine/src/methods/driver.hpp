@@ -39,6 +39,7 @@ struct Deposit {
 /// Per-thread working memory, allocated once and reused by every particle.
 struct Scratch {
   std::vector<Deposit> deposits;                 // one particle's deposits, merged by cell
+  TemplateMemo template_memo;                    // pmm: the bank's last templates for this thread
   std::vector<double> nodes[3], orthant, patch;  // exact method
   std::vector<double> window;                    // volume per cell of the particle's window
   std::vector<std::int32_t> local_cells;         // pmm: window cell of each sub-element
@@ -175,8 +176,8 @@ struct MethodContext {
 struct Context : MethodContext {
   const CartesianGrid& grid;
 
-  const kernels::ParticleTemplate& template_for(const Particle& p) const {
-    return p.shape_template ? *p.shape_template : bank.template_for(2 * p.radius, grid.cell_volume());
+  const kernels::ParticleTemplate& template_for(const Particle& p, Scratch& s) const {
+    return p.shape_template ? *p.shape_template : bank.template_for(2 * p.radius, grid.cell_volume(), s.template_memo);
   }
 };
 
@@ -351,8 +352,8 @@ class PmmQuick {
 
   const Context& context() const { return ctx_; }
   /// The template operator() takes for p.
-  const kernels::ParticleTemplate& template_of(const Particle& p) const {
-    return single_ && !p.shape_template ? *single_ : ctx_.template_for(p);
+  const kernels::ParticleTemplate& template_of(const Particle& p, Scratch& s) const {
+    return single_ && !p.shape_template ? *single_ : ctx_.template_for(p, s);
   }
 
   /// What a counted particle gives the sink for an octant it reaches without a sub-element:
@@ -367,7 +368,7 @@ class PmmQuick {
   [[gnu::always_inline]] bool operator()(Scratch& s, const Particle& p, Sink&& sink,
                                          EmptyOctants empty = EmptyOctants::skip) const {
     if (!usable_) return false;
-    const kernels::ParticleTemplate& t = template_of(p);
+    const kernels::ParticleTemplate& t = template_of(p, s);
     // make_window's cells, for a window inside the grid: there no clamp acts, and on a grid
     // from the origin (not a block) the floor of each bound's coordinate (axis_index's) is
     // its truncation.

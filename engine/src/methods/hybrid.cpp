@@ -34,7 +34,7 @@ const GridCosts& cartesian_costs() { return kCartesian; }
 const GridCosts& rectilinear_costs() { return kRectilinear; }
 const PolyCosts& polyhedral_costs() { return kPolyhedral; }
 
-PathCosts path_costs(const Context& ctx, Scratch& /*unused on a grid*/, const Particle& p) {
+PathCosts path_costs(const Context& ctx, Scratch& s, const Particle& p) {
   PathCosts k;
   const CartesianGrid& grid = ctx.grid;
   const Eigen::Vector3d& c = p.centre;
@@ -42,7 +42,7 @@ PathCosts path_costs(const Context& ctx, Scratch& /*unused on a grid*/, const Pa
   k.fast_cell = single_cell(ctx, c, Eigen::Vector3d::Constant(r));
   if ((k.fast = k.fast_cell >= 0)) return k;
   const GridCosts& m = cartesian_costs();
-  const kernels::ParticleTemplate& t = ctx.template_for(p);
+  const kernels::ParticleTemplate& t = ctx.template_for(p, s);
   k.pmm_template = &t;
   const Window w = make_window(grid, c, Eigen::Vector3d::Constant(r * t.reach));
   bool in_mesh = true, small = true;
@@ -72,7 +72,7 @@ PathCosts path_costs(const Context& ctx, Scratch& /*unused on a grid*/, const Pa
   return k;
 }
 
-PathCosts path_costs(const RectilinearContext& ctx, Scratch& /*unused on a grid*/, const Particle& p) {
+PathCosts path_costs(const RectilinearContext& ctx, Scratch& s, const Particle& p) {
   PathCosts k;
   const RectilinearGrid& grid = ctx.grid;
   const Eigen::Vector3d& c = p.centre;
@@ -96,7 +96,7 @@ PathCosts path_costs(const RectilinearContext& ctx, Scratch& /*unused on a grid*
     k.pmm = m.pmm_particle + fewest * m.pmm_point;
     return k;
   }
-  const kernels::ParticleTemplate& t = ctx.bank.template_for(2 * r, grid.cell_volume(grid.nearest(c)));
+  const kernels::ParticleTemplate& t = ctx.bank.template_for(2 * r, grid.cell_volume(grid.nearest(c)), s.template_memo);
   k.pmm_template = &t;
   k.pmm_points = static_cast<std::int64_t>(t.size());
   k.pmm = m.pmm_particle + double(k.pmm_points) * m.pmm_point;
@@ -117,7 +117,7 @@ PathCosts path_costs(const PolyContext& ctx, Scratch& s, const Particle& p, bool
   }
   const PolyCosts& m = polyhedral_costs();
   const std::int64_t cell = centre_cell >= 0 ? centre_cell : ctx.locator->nearest_cell(c);
-  const kernels::ParticleTemplate& t = ctx.bank.template_for(2 * r, mesh.cell_volume(cell));
+  const kernels::ParticleTemplate& t = ctx.bank.template_for(2 * r, mesh.cell_volume(cell), s.template_memo);
   k.pmm_template = &t;
   // exact's cells: those its walk finds, or where a boundary face is in reach the hash's
   // near the ball.

@@ -108,7 +108,7 @@ template <class Sink>
   const Context& ctx = quick.context();
   const CartesianGrid& grid = ctx.grid;
   const GridCosts& m = cartesian_costs();
-  const kernels::ParticleTemplate& t = quick.template_of(p);
+  const kernels::ParticleTemplate& t = quick.template_of(p, s);
   const double counted = pmm_counted_cost(t);
   if (auto_counts_every_window(t)) {
     // exact's window is not needed: pmm's quick case decides.

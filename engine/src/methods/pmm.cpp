@@ -7,7 +7,7 @@
 namespace vfe::detail {
 
 void pmm_particle(const Context& ctx, Scratch& s, const Particle& p) {
-  deposit_points(ctx, s, p, ctx.template_for(p), nullptr, p.outside);
+  deposit_points(ctx, s, p, ctx.template_for(p, s), nullptr, p.outside);
 }
 
 Eigen::Matrix3d particle_rotation(const Options& opts, const Particle& p) {

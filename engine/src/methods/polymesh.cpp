@@ -655,7 +655,7 @@ void polymesh_pmm_at(const PolyContext& ctx, Scratch& s, const Particle& p, std:
   const kernels::ParticleTemplate* t = p.shape_template;
   if (!t) {  // auto sizes a sphere's template by the cell holding its centre
     const std::int64_t cell = centre_cell >= 0 ? centre_cell : ctx.locator->nearest_cell(p.centre);
-    t = &ctx.bank.template_for(2 * p.radius, ctx.locator->mesh().cell_volume(cell));
+    t = &ctx.bank.template_for(2 * p.radius, ctx.locator->mesh().cell_volume(cell), s.template_memo);
   }
   polymesh_points(ctx, s, p, *t, particle_rotation(ctx.opts, p), p.outside, centre_cell);
 }

@@ -238,7 +238,7 @@ void rectilinear_direct(const RectilinearContext& ctx, Scratch& s, const Particl
 void rectilinear_pmm(const RectilinearContext& ctx, Scratch& s, const Particle& p) {
   const kernels::ParticleTemplate& t =
       p.shape_template ? *p.shape_template
-                       : ctx.bank.template_for(2 * p.radius, ctx.grid.cell_volume(ctx.grid.nearest(p.centre)));
+                       : ctx.bank.template_for(2 * p.radius, ctx.grid.cell_volume(ctx.grid.nearest(p.centre)), s.template_memo);
   deposit_points(ctx, s, p, t, particle_rotation(ctx.opts, p), p.outside);
 }
 
