@@ -2,6 +2,7 @@
 // uniform nodes, exact volumes on graded nodes against the Cartesian exact method on a finer
 // grid that shares their nodes, periodic axes, and bad nodes.
 #include "particles.hpp"
+#include "polymesh/rectilinear_grid.hpp"
 
 #include <vfe/engine.hpp>
 
@@ -10,7 +11,9 @@
 #include <numbers>
 #include <numeric>
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -25,6 +28,39 @@ std::vector<double> uniform_nodes(double lo, double h, int cells) {
   std::vector<double> x(cells + 1);
   for (int i = 0; i <= cells; ++i) x[i] = lo + h * i;
   return x;
+}
+
+// axis_index narrows its search to x's bucket: it must give what a binary search over all
+// the nodes gives, on nodes, between them, beyond both ends, for strongly graded axes
+// (many nodes in one bucket) and for NaN and infinities.
+TEST(RectilinearGrid, AxisIndexIsTheBinarySearchOverAllNodes) {
+  std::mt19937_64 rng(12);
+  std::uniform_real_distribution<double> u(0, 1);
+  for (int trial = 0; trial < 20; ++trial) {
+    std::array<std::vector<double>, 3> nodes;
+    for (int d = 0; d < 3; ++d) {
+      const int n = 1 + int(rng() % 40);
+      double x = -1 + u(rng);
+      nodes[d].push_back(x);
+      const double ratio = trial % 2 ? 1.6 : 1.02;  // geometric grading: up to 1.6^40 between cells
+      double h = 1e-3 * (1 + u(rng));
+      for (int i = 0; i < n; ++i) nodes[d].push_back(x += (h *= ratio));
+    }
+    const vfe::RectilinearGrid grid(nodes);
+    for (int d = 0; d < 3; ++d) {
+      const auto& x = nodes[d];
+      const auto expected = [&](double v) -> std::int64_t {
+        if (!(v >= x.front())) return -1;
+        return std::int64_t(std::upper_bound(x.begin(), x.end(), v) - x.begin()) - 1;
+      };
+      std::vector<double> probes{std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity(),
+                                 -std::numeric_limits<double>::infinity(), x.front() - 1, x.back() + 1};
+      for (const double node : x)
+        probes.insert(probes.end(), {node, std::nextafter(node, -1e300), std::nextafter(node, 1e300)});
+      for (int i = 0; i < 2000; ++i) probes.push_back(x.front() + (x.back() - x.front()) * (1.2 * u(rng) - 0.1));
+      for (const double v : probes) ASSERT_EQ(grid.axis_index(d, v), expected(v)) << "trial " << trial << " x " << v;
+    }
+  }
 }
 
 TEST(RectilinearEngine, UniformNodesGiveTheCartesianFields) {

@@ -52,6 +52,17 @@ RectilinearGrid::RectilinearGrid(std::array<std::vector<double>, 3> nodes) : nod
         << "); give the nodes in units where cells are nearer to 1 (e.g. mm or m)";
     throw Error(VFE_ERROR_INVALID_ARGUMENT, msg.str());
   }
+  for (int d = 0; d < 3; ++d) {
+    const auto k = static_cast<std::size_t>(d);
+    const auto& x = nodes_[k];
+    // About four buckets a cell (at most 2^22 an axis).
+    bucket_last_[k] = static_cast<std::size_t>(std::min<std::int64_t>(4 * n_[k], std::int64_t(1) << 22));
+    bucket_scale_[k] = double(bucket_last_[k]) / (x.back() - x.front());
+    auto& first = bucket_first_[k];
+    first.assign(bucket_last_[k] + 2, 0);
+    for (const double v : x) ++first[bucket(d, v) + 1];  // nodes per bucket, one slot up
+    for (std::size_t b = 1; b < first.size(); ++b) first[b] += first[b - 1];
+  }
   const double total = double(n_[0]) * double(n_[1]) * double(n_[2]);
   if (total > double(std::int64_t(1) << 40)) {
     std::ostringstream msg;
@@ -66,7 +77,9 @@ std::int64_t RectilinearGrid::axis_index(int d, double x) const {
   // First node greater than x; x_i <= x < x_{i+1} for i = that - 1. NaN compares false
   // everywhere and lands below the grid.
   if (!(x >= nodes.front())) return -1;
-  const auto it = std::upper_bound(nodes.begin(), nodes.end(), x);
+  const std::size_t b = bucket(d, x);
+  const auto& first = bucket_first_[static_cast<std::size_t>(d)];
+  const auto it = std::upper_bound(nodes.begin() + first[b], nodes.begin() + first[b + 1], x);
   return static_cast<std::int64_t>(it - nodes.begin()) - 1;
 }
 

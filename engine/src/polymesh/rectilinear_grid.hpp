@@ -31,9 +31,10 @@ class RectilinearGrid {
   /// (i, j, k) of cell c.
   std::array<std::int64_t, 3> ijk(std::int64_t c) const { return {c % n_[0], (c / n_[0]) % n_[1], c / (n_[0] * n_[1])}; }
 
-  /// Cell coordinate of x along axis d by binary search: i with x_i <= x < x_{i+1}; -1
-  /// below the first node, n (the cell count of the axis) at or above the last node.
-  /// A point on an interior node goes to the cell above it.
+  /// Cell coordinate of x along axis d: i with x_i <= x < x_{i+1}; -1 below the first node,
+  /// n (the cell count of the axis) at or above the last node. A point on an interior node
+  /// goes to the cell above it. (Equal buckets over the axis narrow the binary search to
+  /// the nodes in x's bucket, usually none or one.)
   std::int64_t axis_index(int d, double x) const;
   /// Cell holding p, or -1 outside [lower, upper) (the upper faces are outside), as
   /// CartesianGrid::locate.
@@ -52,8 +53,22 @@ class RectilinearGrid {
   PolyMeshData polymesh_data() const;
 
  private:
+  /// x's bucket along axis d (x at or above the first node): monotone in x, so a node in a
+  /// lower bucket lies at or below x and one in a higher bucket above it.
+  std::size_t bucket(int d, double x) const {
+    const auto k = static_cast<std::size_t>(d);
+    const double t = (x - nodes_[k].front()) * bucket_scale_[k];
+    return t < double(bucket_last_[k]) ? static_cast<std::size_t>(t) : bucket_last_[k];
+  }
+
   std::array<std::vector<double>, 3> nodes_;
   std::array<std::int64_t, 3> n_{};
+  // Per axis: buckets 0..bucket_last_ of equal width (the last one open above), and for
+  // each bucket b the number of nodes in buckets below b (bucket_first_[b], b up to
+  // bucket_last_ + 1).
+  std::array<double, 3> bucket_scale_{};
+  std::array<std::size_t, 3> bucket_last_{};
+  std::array<std::vector<std::int32_t>, 3> bucket_first_;
 };
 
 }  // namespace vfe
