@@ -16,7 +16,7 @@ namespace {
 // spheres per mesh kind, each path's time per sphere fitted to its mean work by least
 // squares, every constant >= 0 (a work measure that others explain gets 0).
 constexpr GridCosts kCartesian{36, 2.5, 0.19, 106, 56, 22.4, 11.2};
-constexpr GridCosts kRectilinear{171, 21, 21, 115, 49, 0, 0};
+constexpr GridCosts kRectilinear{290, 8.8, 8.8, 69, 47, 0, 0};
 constexpr PolyCosts kPolyhedral{0, 24.5, 298, 0, 0, 808, 42};
 
 /// Cells from lo to hi along an axis of n cells, clamped to the mesh unless it wraps (exact's box of cells).
