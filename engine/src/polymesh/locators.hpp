@@ -54,7 +54,8 @@ class SpatialHash {
 
   /// The cell holding p, or -1 when p is outside the mesh (or not finite).
   std::int64_t locate(const Eigen::Vector3d& p) const;
-  /// Cells whose bounds overlap the bin of p, in increasing order (empty outside the box).
+  /// Cells whose bounds overlap the bin of p, those covering more of the bin first (empty
+  /// outside the box).
   std::span<const std::uint32_t> candidates(const Eigen::Vector3d& p) const;
   /// The cells whose bounding boxes overlap `box` (closed), each once: replaces the
   /// contents of out (no allocation once out has the capacity).
