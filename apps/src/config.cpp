@@ -639,6 +639,19 @@ SceneConfig parse_config(const std::string& text, const fs::path& base_dir, cons
   }
 }
 
+void keep_methods(SceneConfig& config, const std::vector<std::string>& labels) {
+  if (labels.empty()) return;
+  for (const std::string& label : labels)
+    if (std::none_of(config.methods.begin(), config.methods.end(), [&](const MethodSpec& m) { return m.label == label; })) {
+      std::string known;
+      for (const auto& m : config.methods) known += (known.empty() ? "" : ", ") + m.label;
+      throw ConfigError(config.source.string() + ": no method labelled '" + label + "' to run; the config has " + known);
+    }
+  std::erase_if(config.methods, [&](const MethodSpec& m) {
+    return std::find(labels.begin(), labels.end(), m.label) == labels.end();
+  });
+}
+
 SceneConfig load_config(const fs::path& file) {
   std::error_code ec;
   if (!fs::exists(file, ec))

@@ -131,6 +131,11 @@ MethodSpec default_shape_reference();
 /// Reads and validates a config file. Relative paths in it are relative to its folder.
 SceneConfig load_config(const std::filesystem::path& file);
 
+/// Keeps only the methods labelled in `labels` (in the config's order; empty keeps every
+/// one), as `vfe study --families` and `vfe run --methods` select them; the reference stays.
+/// Throws ConfigError naming an unknown label and the config's labels.
+void keep_methods(SceneConfig& config, const std::vector<std::string>& labels);
+
 /// Parses config text; base_dir resolves relative paths, source names the text in messages.
 SceneConfig parse_config(const std::string& text, const std::filesystem::path& base_dir,
                          const std::string& source);

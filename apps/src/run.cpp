@@ -370,6 +370,7 @@ CliCommand register_run(CLI::App& app) {
     bool vtk = false;
     bool foam = false;
     std::string timesteps;
+    std::vector<std::string> methods;
   };
   const auto args = std::make_shared<Args>();
   CLI::App* run = app.add_subcommand("run", "Compute, time and compare the methods of a YAML scene config");
@@ -388,12 +389,16 @@ CliCommand register_run(CLI::App& app) {
                 "Also write OpenFOAM fields <mesh>/0/voidfraction_<method> and <mesh>/0/voidfraction on "
                 "polyMesh meshes");
 
+  run->add_option("--methods", args->methods,
+                  "Run only these methods (labels of the config's methods), a list; the reference is still computed")
+      ->delimiter(',');
   run->add_option("--timesteps", args->timesteps,
                   "A series' timesteps FROM:TO, inclusive, either may be empty (replaces the config's 'timesteps')");
 
   return {run, [args] {
     SceneConfig cfg = load_config(args->config_file);
     if (!args->timesteps.empty()) set_timesteps(cfg, args->timesteps);
+    keep_methods(cfg, args->methods);
     RunOptions opt;
     if (!args->output.empty()) opt.output = args->output;
     if (args->threads >= 0) opt.threads = args->threads;

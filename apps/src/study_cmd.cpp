@@ -231,15 +231,9 @@ StudyResult run_study(const SceneConfig& cfg, const StudyOptions& opt) {
       return o;
     };
     (void)options_of(cfg.reference, "", "reference");
-    for (const std::string& f : opt.families)
-      if (std::none_of(cfg.methods.begin(), cfg.methods.end(), [&](const MethodSpec& m) { return m.label == f; })) {
-        std::string known;
-        for (const auto& m : cfg.methods) known += (known.empty() ? "" : ", ") + m.label;
-        throw ConfigError(source + ": no method family '" + f + "' to run; the config has " + known);
-      }
-    for (const auto& m : cfg.methods) {
-      if (!opt.families.empty() && std::find(opt.families.begin(), opt.families.end(), m.label) == opt.families.end())
-        continue;
+    SceneConfig selected = cfg;
+    keep_methods(selected, opt.families);
+    for (const auto& m : selected.methods) {
       if (m.settings.empty()) jobs.push_back({m, "", options_of(m, "", "method")});
       for (const auto& s : m.settings) jobs.push_back({m, s, options_of(m, s, "method")});
     }

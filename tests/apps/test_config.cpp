@@ -86,6 +86,27 @@ TEST(Config, ParsesTheSchema) {
   EXPECT_FALSE(c.vtk);
 }
 
+// `vfe run --methods` and `vfe study --families`: the labelled methods, in the config's
+// order, the reference kept; an unknown label is named with the config's labels.
+TEST(Config, KeepMethodsSelectsByLabel) {
+  SceneConfig c = parse_config(kGood, "/cfg/configs", "bed.yaml");
+  keep_methods(c, {});
+  EXPECT_EQ(c.methods.size(), 4u);
+  keep_methods(c, {"pmm_fib27", "direct"});
+  ASSERT_EQ(c.methods.size(), 2u);
+  EXPECT_EQ(c.methods[0].label, "direct");
+  EXPECT_EQ(c.methods[1].label, "pmm_fib27");
+  EXPECT_EQ(c.reference.method, "exact");
+  try {
+    keep_methods(c, {"exact"});
+    FAIL() << "no error";
+  } catch (const ConfigError& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("'exact'"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("direct, pmm_fib27"), std::string::npos) << msg;
+  }
+}
+
 TEST(Config, DefaultsAndShortForms) {
   const SceneConfig c = parse_config(
       "particles: p.dump\nmeshes: [{origin: 0, spacing: 1, cells: 4}]\nmethods: [direct]\n", "/a", "/a/s.yaml");
