@@ -4,7 +4,6 @@
 #include "methods/hybrid.hpp"
 
 #include <algorithm>
-#include <cmath>
 
 namespace vfe::detail {
 
@@ -150,7 +149,7 @@ PathCosts path_costs(const PolyContext& ctx, Scratch& s, const Particle& p, bool
     }
     std::int64_t points = 0;
     for (const std::int64_t f : mesh.cell_faces(cand))
-      if (std::fabs(mesh.face_normal(f).dot(c - mesh.face_centre(f))) <= reach + mesh.face_warp(f))
+      if (face_plane_in_reach(mesh, f, c, reach))
         points += static_cast<std::int64_t>(mesh.face(f).size()) * (mesh.face_plane_triangle(f) >= 0 ? 1 : 3);
     k.face_points += points;
     k.exact += double(points) * m.exact_face_point;

@@ -5,6 +5,8 @@
 #include "polymesh/locators.hpp"
 #include "polymesh/polymesh.hpp"
 
+#include <cmath>
+
 namespace vfe::detail {
 
 struct PolyContext : MethodContext {
@@ -61,6 +63,13 @@ void polymesh_exact(const PolyContext& ctx, Scratch& s, const Particle& p);
 void polymesh_pmm_at(const PolyContext& ctx, Scratch& s, const Particle& p, std::int64_t centre_cell);
 void polymesh_exact_at(const PolyContext& ctx, Scratch& s, const Particle& p, std::int64_t centre_cell,
                        std::uint64_t walked = 0);
+
+/// Whether face f's plane may reach into the ball about centre: it lies no farther than
+/// reach (the radius and the location tolerance) plus the face's warp. A face beyond can
+/// neither cut the ball nor lead a walk to a cell the ball overlaps.
+inline bool face_plane_in_reach(const PolyMesh& mesh, std::int64_t f, const Eigen::Vector3d& centre, double reach) {
+  return !(std::fabs(mesh.face_normal(f).dot(centre - mesh.face_centre(f))) > reach + mesh.face_warp(f));
+}
 
 /// The cells whose bounds reach the ball (centre, radius) that a walk finds from
 /// centre_cell (>= 0) across the faces whose planes the ball reaches, into

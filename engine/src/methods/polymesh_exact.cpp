@@ -75,7 +75,7 @@ std::optional<double> located_cell_overlap(const PolyMesh& mesh, std::int64_t c,
   const double reach = radius + mesh.location_tolerance();
   double sum = 0;
   for (const std::int64_t f : mesh.cell_faces(c)) {
-    if (std::fabs(mesh.face_normal(f).dot(centre - mesh.face_centre(f))) > reach + mesh.face_warp(f)) continue;
+    if (!face_plane_in_reach(mesh, f, centre, reach)) continue;
     const Scratch::FaceTerm& term = face_term(mesh, f, centre, radius, s);
     if (!term.sure) return std::nullopt;
     sum += mesh.owner(f) == c ? term.value : -term.value;
@@ -123,7 +123,7 @@ bool walk_ball_cells(const PolyMesh& mesh, Scratch& s, const Eigen::Vector3d& ce
   for (std::size_t i = 0; i < queue.size(); ++i) {
     const std::int64_t cell = queue[i];
     for (const std::int64_t f : mesh.cell_faces(cell)) {
-      if (std::fabs(mesh.face_normal(f).dot(centre - mesh.face_centre(f))) > reach + mesh.face_warp(f)) continue;
+      if (!face_plane_in_reach(mesh, f, centre, reach)) continue;
       const std::int64_t next = mesh.across(f, cell);
       if (next < 0) {
         complete = false;

@@ -149,21 +149,21 @@ SpatialHash::SpatialHash(const PolyMesh& mesh, double bins_per_cell) : mesh_(&me
   // Within a bin, the cells whose bounds cover more of it first (ties by cell): locate()
   // tests them in this order and stops at the one holding the point, most often the first.
   std::vector<std::pair<double, std::uint32_t>> order;
+  const Eigen::Vector3d bin_size = inv_h_.cwiseInverse();
   for (std::int64_t b = 0; b < n_bins; ++b) {
     const auto begin = static_cast<std::size_t>(offsets_[static_cast<std::size_t>(b)]);
     const auto end = static_cast<std::size_t>(offsets_[static_cast<std::size_t>(b) + 1]);
     if (end - begin < 2) continue;
     const std::int64_t i = b % nb_[0], j = b / nb_[0] % nb_[1], k = b / nb_[0] / nb_[1];
-    const Eigen::Vector3d h = (hi_ - lo_).cwiseQuotient(Eigen::Vector3d(double(nb_[0]), double(nb_[1]), double(nb_[2])));
-    const Eigen::Vector3d bin_lo = lo_ + h.cwiseProduct(Eigen::Vector3d(double(i), double(j), double(k)));
-    const Eigen::AlignedBox3d bin_box(bin_lo, bin_lo + h);
+    const Eigen::Vector3d bin_lo = lo_ + bin_size.cwiseProduct(Eigen::Vector3d(double(i), double(j), double(k)));
+    const Eigen::AlignedBox3d bin_box(bin_lo, bin_lo + bin_size);
     order.clear();
     for (std::size_t e = begin; e < end; ++e) {
       const Eigen::AlignedBox3d cover = mesh.cell_bounds(cells_[e]).intersection(bin_box);
       order.emplace_back(cover.isEmpty() ? 0.0 : cover.volume(), cells_[e]);
     }
-    std::sort(order.begin(), order.end(), [](const auto& a, const auto& b) {
-      return a.first > b.first || (a.first == b.first && a.second < b.second);
+    std::sort(order.begin(), order.end(), [](const auto& x, const auto& y) {
+      return x.first > y.first || (x.first == y.first && x.second < y.second);
     });
     for (std::size_t e = begin; e < end; ++e) cells_[e] = order[e - begin].second;
   }
