@@ -67,6 +67,13 @@ TemplateBank TemplateCache::prepare(const Options& opts, double d_min, double d_
     for (std::int64_t k = bank.first_step; k <= last; ++k) bank_.push_back(&get(opts, auto_particle_count(k, bank.rule)));
   }
   bank.templates = bank_;
+  // One template counted with the bank's rotations: its points on their rows, once per engine.
+  if (bank_.size() == 1 && bank_.front()->split_words == 1 && opts.orientation == Orientation::random &&
+      opts.rotation_bank) {
+    kernels::BankProjections& p = projections_[bank_.front()];
+    if (!p) p = kernels::project_on_rotation_bank(*bank_.front());
+    bank.projections = &p;
+  }
   static std::atomic<std::uint64_t> banks{0};  // every bank of every engine: its own id
   bank.id = ++banks;
   return bank;

@@ -5,6 +5,7 @@
 
 #include "options.hpp"
 
+#include <vfe/kernels/octant_split.hpp>
 #include <vfe/kernels/particle_template.hpp>
 #include <vfe/stability.hpp>
 
@@ -54,6 +55,9 @@ struct TemplateBank {
   bool fixed = false;           ///< particle_grid given: templates[0] for every particle
   AutoRule rule;
   std::uint64_t id = 0;         ///< unique per bank prepared (TemplateMemo's key)
+  /// The one template's projections on the rotation bank, where pmm counts with them
+  /// (orientation=random from the bank, at most 64 points); else null.
+  const kernels::BankProjections* projections = nullptr;
 
   /// The template of a sphere of this diameter in a cell of this volume.
   const kernels::ParticleTemplate& template_for(double diameter, double cell_volume) const {
@@ -100,6 +104,7 @@ class TemplateCache {
 
  private:
   std::map<std::pair<int, std::int64_t>, std::unique_ptr<kernels::ParticleTemplate>> cache_;
+  std::map<const kernels::ParticleTemplate*, kernels::BankProjections> projections_;  ///< built on first use
   std::vector<const kernels::ParticleTemplate*> bank_;
 };
 

@@ -6,6 +6,8 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <new>
+#include <utility>
 
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
 #include <immintrin.h>
@@ -101,6 +103,23 @@ void prepare_octant_split(ParticleTemplate& t) {
   }
 }
 
+BankProjections project_on_rotation_bank(const ParticleTemplate& t) {
+  BankProjections b;
+  const std::size_t n = t.size();
+  if (t.split_words != 1) return b;  // no split points, or more than 64 (those are grouped)
+  const std::size_t groups = (n + 7) / 8, per_slot = 24 * groups;
+  b.values.reset(new (std::align_val_t{64}) float[kRotationBankSize * per_slot]);
+  b.groups = groups;
+  for (std::size_t slot = 0; slot < kRotationBankSize; ++slot) {
+    const Eigen::Matrix3d& R = banked_rotation(slot);
+    float* out = b.values.get() + slot * per_slot;
+    for (int d = 0; d < 3; ++d)
+      for (std::size_t s = 0; s < 8 * groups; ++s)  // split_points' order: the template's (ungrouped)
+        out[d * 8 * groups + s] = static_cast<float>(kSplitScale * R.row(d).dot(t.points[std::min(s, n - 1)]));
+  }
+  return b;
+}
+
 namespace {
 
 /// Per split axis, the bit masks "above the plane" over the template's words, and one
@@ -170,6 +189,35 @@ bool count_portable_split(const ParticleTemplate& t, const float* rows, const fl
   return count_portable(t, rows, tau, kSplit, counts);
 }
 
+/// count_portable from the slot's projections (BankProjections::of_slot) instead of the rows.
+bool count_projected_portable(const ParticleTemplate& t, const float* projections, const float tau[3],
+                              unsigned split, std::int32_t counts[8]) {
+  const std::size_t row = 8 * ((t.size() + 7) / 8);
+  const float scale = static_cast<float>(kSplitScale), guard = 0.5f;
+  SplitMasks m;
+  int a = 0;
+  for (int d = 0; d < 3; ++d) {
+    if (!((split >> d) & 1u)) continue;
+    const float* distance = projections + d * row;
+    std::uint64_t above = 0, near = 0;
+    for (std::size_t s = 0; s < t.size(); ++s) {
+      above |= std::uint64_t(distance[s] >= scale * tau[d]) << s;
+      near |= std::uint64_t(std::fabs(distance[s] - scale * tau[d]) < guard) << s;
+    }
+    m.above[a++][0] = above;
+    m.near |= near;
+  }
+  if (m.near) return false;
+  counts_from_masks(t, m, split, counts);
+  return true;
+}
+
+template <unsigned kSplit>
+bool count_projected_portable_split(const ParticleTemplate& t, const float* projections, const float tau[3],
+                                    std::int32_t counts[8]) {
+  return count_projected_portable(t, projections, tau, kSplit, counts);
+}
+
 /// No split axis: one octant holds every point.
 bool count_unsplit(const ParticleTemplate& t, const float*, const float*, std::int32_t counts[8]) {
   for (int o = 0; o < 8; ++o) counts[o] = 0;
@@ -181,7 +229,7 @@ bool count_unsplit(const ParticleTemplate& t, const float*, const float*, std::i
 template <auto kCount>
 void count_batch(const ParticleTemplate& t, const OctantQuery* queries, std::size_t n, std::int32_t* counts,
                  std::uint8_t* decided) {
-  for (std::size_t k = 0; k < n; ++k) decided[k] = kCount(t, queries[k].rows, queries[k].tau, counts + 8 * k);
+  for (std::size_t k = 0; k < n; ++k) decided[k] = kCount(t, queries[k].rotation, queries[k].tau, counts + 8 * k);
 }
 
 /// Octant counts from P[S], the points above every plane of axis set S (P[0] = all
@@ -282,23 +330,13 @@ constexpr auto kInterleavedValid = [] {
 /// (kInterleavedValid masks the padding in that order).
 /// kGroups: the template's groups of eight points, 1 to 8 (at most 64 points: the loops
 /// unroll into straight code; larger templates take count_plain_body or count_grouped_body).
-template <unsigned kSplit, std::size_t kGroups>
-[[gnu::always_inline]] inline __attribute__((target("avx2,fma,popcnt"))) bool count_avx2_body(
-    const SplitView& t, const float* rows, const float tau[3], std::int32_t counts[8]) {
+/// distance(a, s): the scaled distances R_d . q - tau_d of the eight points from s on to the
+/// plane of the a-th split axis d (RotatedDistances or ProjectedDistances).
+template <unsigned kSplit, std::size_t kGroups, class Distance>
+[[gnu::always_inline]] inline __attribute__((target("avx2,fma,popcnt"))) bool count_by_distances(
+    std::size_t n, const Distance& distance, std::int32_t counts[8]) {
   static_assert(kGroups >= 1 && kGroups <= 8);
   constexpr int kAxes = SplitAxes<kSplit>::count;
-  constexpr const int(&axis)[3] = SplitAxes<kSplit>::axis;
-  __m256 r0[kAxes], r1[kAxes], r2[kAxes], shift[kAxes];
-#pragma GCC unroll 3
-  for (int a = 0; a < kAxes; ++a) {
-    const float* r = rows + 3 * axis[a];
-    r0[a] = _mm256_set1_ps(r[0]), r1[a] = _mm256_set1_ps(r[1]), r2[a] = _mm256_set1_ps(r[2]);
-    shift[a] = _mm256_set1_ps(tau[axis[a]] * -static_cast<float>(kSplitScale));
-  }
-  const std::size_t n = t.n, stride = 64, groups = kGroups;
-  const float* x = t.points;
-  const float* y = x + stride;
-  const float* z = y + stride;
   const __m256i below_all = _mm256_set1_epi32(std::numeric_limits<std::int32_t>::min());
   __m256i near = _mm256_setzero_si256();
   std::int32_t P[8] = {};
@@ -307,18 +345,16 @@ template <unsigned kSplit, std::size_t kGroups>
 #pragma GCC unroll 2
   for (std::size_t half = 0; half < 2; ++half) {
     const std::size_t group = 4 * half;  // the half's first group
-    if (group >= groups) break;
-    // Axis by axis (the points are memory operands of the FMAs, reloaded from L1), so
-    // three split axes fit the sixteen vector registers.
+    if (group >= kGroups) break;
+    // Axis by axis (the points are memory operands, reloaded from L1), so three split axes
+    // fit the sixteen vector registers.
 #pragma GCC unroll 3
     for (int a = 0; a < kAxes; ++a) {
       __m256i k[4];
 #pragma GCC unroll 4
-      for (std::size_t g = 0; g < 4; ++g) {
-        const std::size_t s = 8 * (group + g);
-        k[g] = group + g < groups ? _mm256_cvtps_epi32(plane_offsets(r0[a], r1[a], r2[a], shift[a], x, y, z, s))
-                                  : below_all;  // beyond the template: below every plane, no work
-      }
+      for (std::size_t g = 0; g < 4; ++g)
+        k[g] = group + g < kGroups ? _mm256_cvtps_epi32(distance(a, 8 * (group + g)))
+                                   : below_all;  // beyond the template: below every plane, no work
       above[a] |= std::uint64_t(points_above(k, near)) << (32 * half);
     }
   }
@@ -326,6 +362,89 @@ template <unsigned kSplit, std::size_t kGroups>
   if (!_mm256_testz_si256(near, near)) return false;
   counts_from_above<kSplit>(P, counts);
   return true;
+}
+
+/// Distances from the rotation: per split axis its row and shift broadcast, three products
+/// per point.
+template <unsigned kSplit>
+struct RotatedDistances {
+  static constexpr int kAxes = SplitAxes<kSplit>::count;
+  __m256 r0[kAxes], r1[kAxes], r2[kAxes], shift[kAxes];
+  const float *x, *y, *z;
+  [[gnu::always_inline]] inline __attribute__((target("avx2,fma"))) RotatedDistances(const float* points,
+                                                                                    const float* rows,
+                                                                                    const float tau[3])
+      : x(points), y(points + 64), z(points + 128) {
+    constexpr const int(&axis)[3] = SplitAxes<kSplit>::axis;
+#pragma GCC unroll 3
+    for (int a = 0; a < kAxes; ++a) {
+      const float* r = rows + 3 * axis[a];
+      r0[a] = _mm256_set1_ps(r[0]), r1[a] = _mm256_set1_ps(r[1]), r2[a] = _mm256_set1_ps(r[2]);
+      shift[a] = _mm256_set1_ps(tau[axis[a]] * -static_cast<float>(kSplitScale));
+    }
+  }
+  [[gnu::always_inline]] inline __attribute__((target("avx2,fma"))) __m256 operator()(int a, std::size_t s) const {
+    return plane_offsets(r0[a], r1[a], r2[a], shift[a], x, y, z, s);
+  }
+};
+
+/// Distances from the particle's slot of BankProjections: a load and an add per point.
+template <unsigned kSplit, std::size_t kGroups>
+struct ProjectedDistances {
+  static constexpr int kAxes = SplitAxes<kSplit>::count;
+  const float* row[kAxes];
+  __m256 shift[kAxes];
+  [[gnu::always_inline]] inline __attribute__((target("avx2"))) ProjectedDistances(const float* projections,
+                                                                                  const float tau[3]) {
+    constexpr const int(&axis)[3] = SplitAxes<kSplit>::axis;
+#pragma GCC unroll 3
+    for (int a = 0; a < kAxes; ++a) {
+      row[a] = projections + axis[a] * 8 * kGroups;
+      shift[a] = _mm256_set1_ps(tau[axis[a]] * -static_cast<float>(kSplitScale));
+    }
+  }
+  [[gnu::always_inline]] inline __attribute__((target("avx2"))) __m256 operator()(int a, std::size_t s) const {
+    return _mm256_add_ps(_mm256_loadu_ps(row[a] + s), shift[a]);
+  }
+};
+
+/// The count of a template of at most 64 points (one word: split_points' stride is 64).
+template <unsigned kSplit, std::size_t kGroups>
+[[gnu::always_inline]] inline __attribute__((target("avx2,fma,popcnt"))) bool count_avx2_body(
+    const SplitView& t, const float* rows, const float tau[3], std::int32_t counts[8]) {
+  return count_by_distances<kSplit, kGroups>(t.n, RotatedDistances<kSplit>(t.points, rows, tau), counts);
+}
+
+/// The same from the particle's slot of BankProjections: each point's distance to a plane is
+/// a load and an add instead of three products.
+template <unsigned kSplit, std::size_t kGroups>
+[[gnu::always_inline]] inline __attribute__((target("avx2,fma,popcnt"))) bool count_projected_body(
+    std::size_t n, const float* projections, const float tau[3], std::int32_t counts[8]) {
+  return count_by_distances<kSplit, kGroups>(n, ProjectedDistances<kSplit, kGroups>(projections, tau), counts);
+}
+
+/// A batch of count_projected_body, the rows of the particle kAhead further asked for first:
+/// the 2.4 MB of projections do not stay in the core's caches, and the slots are random.
+template <unsigned kSplit, std::size_t kGroups>
+__attribute__((target("avx2,fma,popcnt"))) void count_projected_batch_avx2(const ParticleTemplate& t,
+                                                                         const OctantQuery* queries, std::size_t n,
+                                                                         std::int32_t* counts, std::uint8_t* decided) {
+  constexpr std::size_t kAhead = 8, kRowBytes = 32 * kGroups;
+  constexpr const int(&axis)[3] = SplitAxes<kSplit>::axis;
+  const std::size_t points = t.size();
+  for (std::size_t k = 0; k < n; ++k) {
+    if (k + kAhead < n) {
+      const char* ahead = reinterpret_cast<const char*>(queries[k + kAhead].rotation);
+#pragma GCC unroll 3
+      for (int a = 0; a < SplitAxes<kSplit>::count; ++a) {
+        const char* row = ahead + axis[a] * kRowBytes;
+#pragma GCC unroll 4
+        for (std::size_t b = 0; b < kRowBytes; b += 64) __builtin_prefetch(row + b);
+        __builtin_prefetch(row + kRowBytes - 1);
+      }
+    }
+    decided[k] = count_projected_body<kSplit, kGroups>(points, queries[k].rotation, queries[k].tau, counts + 8 * k);
+  }
 }
 
 /// Entry b: the 64-bit mask with byte i all ones for each bit i of b (a group's eight
@@ -481,21 +600,26 @@ __attribute__((target("avx2,fma,popcnt"))) void count_batch_avx2(const ParticleT
                                                                const OctantQuery* queries, std::size_t n,
                                                                std::int32_t* counts, std::uint8_t* decided) {
   const SplitView view = split_view(t);
-  for (std::size_t k = 0; k < n; ++k) decided[k] = kBody(view, queries[k].rows, queries[k].tau, counts + 8 * k);
+  for (std::size_t k = 0; k < n; ++k) decided[k] = kBody(view, queries[k].rotation, queries[k].tau, counts + 8 * k);
 }
 
-/// The counter whose split sets 1 to 7 take these bodies.
+/// The counter whose split sets 1 to 7 take these bodies (and no projected code).
 template <auto... kBodies>
 constexpr OctantCounter vector_counter() {
-  return {{count_unsplit, count_one_avx2<kBodies>...}, {count_batch<count_unsplit>, count_batch_avx2<kBodies>...}};
+  return {{count_unsplit, count_one_avx2<kBodies>...}, {count_batch<count_unsplit>, count_batch_avx2<kBodies>...}, {}};
 }
 
-/// Templates of kGroups groups of eight points (at most 64).
+/// Templates of kGroups groups of eight points (at most 64), with their projected code.
+template <std::size_t kGroups, unsigned... kSplits>
+constexpr OctantCounter sized_counter_of(std::integer_sequence<unsigned, kSplits...>) {
+  OctantCounter c = vector_counter<count_avx2_body<kSplits + 1, kGroups>...>();
+  const OctantBatchFn projected[8] = {count_batch<count_unsplit>, count_projected_batch_avx2<kSplits + 1, kGroups>...};
+  for (int split = 0; split < 8; ++split) c.projected_batch_by_split[split] = projected[split];
+  return c;
+}
 template <std::size_t kGroups>
 constexpr OctantCounter sized_counter() {
-    return vector_counter<count_avx2_body<1, kGroups>, count_avx2_body<2, kGroups>, count_avx2_body<3, kGroups>,
-                          count_avx2_body<4, kGroups>, count_avx2_body<5, kGroups>, count_avx2_body<6, kGroups>,
-                          count_avx2_body<7, kGroups>>();
+  return sized_counter_of<kGroups>(std::make_integer_sequence<unsigned, 7>{});
 }
 
 bool has_avx2() { return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma"); }
@@ -510,7 +634,11 @@ const OctantCounter& octant_counter(const ParticleTemplate& t, SplitPath path) {
       {count_batch<count_unsplit>, count_batch<count_portable_split<1>>, count_batch<count_portable_split<2>>,
        count_batch<count_portable_split<3>>, count_batch<count_portable_split<4>>,
        count_batch<count_portable_split<5>>, count_batch<count_portable_split<6>>,
-       count_batch<count_portable_split<7>>}};
+       count_batch<count_portable_split<7>>},
+      {count_batch<count_unsplit>, count_batch<count_projected_portable_split<1>>,
+       count_batch<count_projected_portable_split<2>>, count_batch<count_projected_portable_split<3>>,
+       count_batch<count_projected_portable_split<4>>, count_batch<count_projected_portable_split<5>>,
+       count_batch<count_projected_portable_split<6>>, count_batch<count_projected_portable_split<7>>}};
 #ifdef VFE_OCTANT_AVX2
   // Entry g: templates of g groups of eight points (at most 64 points).
   static const OctantCounter by_groups[9] = {{},

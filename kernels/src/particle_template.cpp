@@ -192,6 +192,8 @@ const Eigen::Matrix3d& banked_random_rotation(std::uint64_t index, std::uint64_t
   return rotation_bank()[rotation_bank_slot(index, seed)];
 }
 
+const Eigen::Matrix3d& banked_rotation(std::size_t slot) { return rotation_bank()[slot]; }
+
 const float* banked_rotation_rows_table() {
   static const std::vector<float> rows = [] {
     std::vector<float> r(9 * kRotationBankSize);

@@ -122,7 +122,7 @@ TEST_P(OctantSplitPaths, ABatchEqualsOneCallPerParticle) {
       for (std::size_t k = 0; k < kBatch; ++k) {
         const Eigen::Matrix3d R = vfe::kernels::random_rotation(k, split);
         vfe::kernels::rotation_rows(R, rows[k].data());
-        queries[k].rows = rows[k].data();
+        queries[k].rotation = rows[k].data();
         for (int d = 0; d < 3; ++d) queries[k].tau[d] = static_cast<float>(0.9 * u(rng));
         // Every third particle has a point on its first split plane: refused.
         if (split && k % 3 == 0) {
@@ -135,7 +135,7 @@ TEST_P(OctantSplitPaths, ABatchEqualsOneCallPerParticle) {
       counter.batch_by_split[split](t, queries.data(), kBatch, counts.data(), ok.data());
       for (std::size_t k = 0; k < kBatch; ++k) {
         std::int32_t one[8];
-        const bool single = counter.by_split[split](t, queries[k].rows, queries[k].tau, one);
+        const bool single = counter.by_split[split](t, queries[k].rotation, queries[k].tau, one);
         ASSERT_EQ(ok[k], single ? 1 : 0) << "n " << n << " split " << split << " particle " << k;
         if (!single) {
           ++refused;
@@ -148,6 +148,90 @@ TEST_P(OctantSplitPaths, ABatchEqualsOneCallPerParticle) {
   }
   EXPECT_GT(refused, 100);
   EXPECT_GT(decided, 500);
+}
+
+// Counts from the bank's projections against the straightforward count in double with the
+// bank's own rotation: exact wherever they decide, every point within 1e-12 or 1e-6 of a
+// plane refused, points 2e-5 from it decided; padding lanes (a plane through the centre)
+// refuse nothing. Every template size with its own code up to 64 points, every split set.
+TEST_P(OctantSplitPaths, ProjectedCountsEqualTheStraightforwardCount) {
+  std::mt19937_64 rng(9);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  std::int64_t sub_elements = 0, refused = 0, cases = 0, near_cases = 0, clear_cases = 0, clear_refused = 0;
+  for (const int n : {1, 7, 8, 12, 20, 29, 35, 45, 53, 64}) {
+    ParticleTemplate t = vfe::kernels::make_fibonacci_template(n);
+    vfe::kernels::prepare_octant_split(t);
+    const vfe::kernels::BankProjections projections = vfe::kernels::project_on_rotation_bank(t);
+    ASSERT_TRUE(projections);
+    const vfe::kernels::OctantCounter& counter = vfe::kernels::octant_counter(t, GetParam());
+    for (unsigned split = 1; split < 8; ++split) {
+      constexpr std::size_t kBatch = 300;
+      std::vector<vfe::kernels::OctantQuery> queries(kBatch);
+      std::vector<std::array<double, 3>> taus(kBatch);
+      std::vector<std::size_t> slots(kBatch);
+      for (std::size_t k = 0; k < kBatch; ++k) {
+        slots[k] = rng() % vfe::kernels::kRotationBankSize;
+        const Eigen::Matrix3d& R = vfe::kernels::banked_rotation(slots[k]);
+        for (int d = 0; d < 3; ++d) taus[k][d] = k % 10 == 9 ? 0.0 : 0.9 * u(rng);  // some through the centre
+        const int d = std::countr_zero(split);
+        const Eigen::Vector3d& q = t.points[k % t.size()];
+        const double side = k % 2 ? 1.0 : -1.0;
+        if (k % 4 == 0) taus[k][d] = R.row(d).dot(q) + side * 1e-12;
+        if (k % 8 == 1) taus[k][d] = R.row(d).dot(q) + side * 1e-6;
+        if (k % 8 == 5) taus[k][d] = R.row(d).dot(q) + side * 2e-5;
+        queries[k].rotation = projections.of_slot(slots[k]);
+        // The engine's thresholds are floats: the double count takes the same values.
+        for (int e = 0; e < 3; ++e) {
+          queries[k].tau[e] = static_cast<float>(taus[k][e]);
+          taus[k][e] = double(queries[k].tau[e]);
+        }
+      }
+      std::vector<std::int32_t> counts(8 * kBatch, -1);
+      std::vector<std::uint8_t> ok(kBatch, 2);
+      counter.projected_batch_by_split[split](t, queries.data(), kBatch, counts.data(), ok.data());
+      for (std::size_t k = 0; k < kBatch; ++k) {
+        const Eigen::Matrix3d& R = vfe::kernels::banked_rotation(slots[k]);
+        double nearest = 1;
+        for (const Eigen::Vector3d& q : t.points)
+          for (int d = 0; d < 3; ++d)
+            if ((split >> d) & 1u) nearest = std::min(nearest, std::abs(R.row(d).dot(q) - taus[k][d]));
+        const bool near = nearest < 2e-6, clear = nearest > 1.5e-5;  // the guard band is 3.8e-6
+        ++cases;
+        near_cases += near;
+        clear_cases += clear;
+        ASSERT_LE(ok[k], 1);
+        if (!ok[k]) {
+          ++refused;
+          clear_refused += clear;
+          EXPECT_LT(nearest, 1e-5) << "n " << n << " split " << split << " particle " << k << ": refused with every point "
+                                   << nearest << " from the planes";
+          continue;
+        }
+        EXPECT_FALSE(near) << "n " << n << " split " << split << " particle " << k << ": a point " << nearest
+                           << " from a plane was not refused";
+        std::int32_t want[8];
+        brute_counts(t, R, split, taus[k].data(), want);
+        for (int o = 0; o < 8; ++o)
+          ASSERT_EQ(counts[8 * k + o], want[o]) << "n " << n << " split " << split << " particle " << k;
+        sub_elements += n;
+      }
+    }
+  }
+  EXPECT_GT(sub_elements, 300000);
+  EXPECT_GT(near_cases, cases / 5);
+  EXPECT_LT(refused, near_cases + cases / 50) << refused << " of " << cases;
+  EXPECT_EQ(clear_refused, 0) << "points well outside the guard band sent to double";
+}
+
+// No projections for a template the count takes in words or groups (over 64 points).
+TEST(OctantSplit, OnlyTemplatesOfOneWordHaveProjections) {
+  ParticleTemplate t = vfe::kernels::make_fibonacci_template(65);
+  vfe::kernels::prepare_octant_split(t);
+  EXPECT_FALSE(vfe::kernels::project_on_rotation_bank(t));
+  ParticleTemplate unequal = vfe::kernels::make_spherical_template(30);
+  unequal.fractions[0] *= 2;  // unequal shares: no split points
+  vfe::kernels::prepare_octant_split(unequal);
+  EXPECT_FALSE(vfe::kernels::project_on_rotation_bank(unequal));
 }
 
 INSTANTIATE_TEST_SUITE_P(OctantSplit, OctantSplitPaths,

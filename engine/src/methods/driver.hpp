@@ -345,6 +345,8 @@ class PmmQuick {
       grid_.reach = single_->reach;
       grid_.countable = !single_->split_points.empty();
     }
+    if (window_grid_ && ctx.bank.projections && counter_->projected_batch_by_split[1])
+      projections_ = ctx.bank.projections;
     grid_.seed = seed_;
     grid_.nx = static_cast<std::int32_t>(window_grid_ ? nx_ : 0);
     grid_.nxy = static_cast<std::int32_t>(window_grid_ ? nxy_ : 0);
@@ -488,7 +490,9 @@ class PmmQuick {
           sphere[slot] = static_cast<std::uint16_t>(k);
           cell[slot] = w.cell[i];
           volume[slot] = w.volume[i];
-          query[slot] = {bank_rows_ + 9 * std::int64_t(w.slot[i]), {w.tau[0][i], w.tau[1][i], w.tau[2][i]}};
+          query[slot] = {projections_ ? projections_->of_slot(static_cast<std::size_t>(w.slot[i]))
+                                      : bank_rows_ + 9 * std::int64_t(w.slot[i]),
+                         {w.tau[0][i], w.tau[1][i], w.tau[2][i]}};
         } else if (w.kind[i] == QuickWindows::fast) {
           ++tally.fast;
           sink(w.cell[i], w.volume[i]);
@@ -504,8 +508,8 @@ class PmmQuick {
     for (unsigned split = 1; split < 8; ++split) {  // a count has a split axis: set 0 holds no count
       const std::int64_t begin = first[split], end = first[split + 1];
       if (begin == end) continue;
-      counter_->batch_by_split[split](*single_, query + begin, static_cast<std::size_t>(end - begin),
-                                      counts + 8 * begin, decided + begin);
+      (projections_ ? counter_->projected_batch_by_split : counter_->batch_by_split)[split](
+          *single_, query + begin, static_cast<std::size_t>(end - begin), counts + 8 * begin, decided + begin);
       for (std::int64_t slot = begin; slot < end; ++slot) {
         if (!decided[slot]) {
           declined(sphere[slot]);
@@ -533,6 +537,8 @@ class PmmQuick {
   const kernels::ParticleTemplate* single_;  ///< the bank's one template, or null
   const kernels::OctantCounter* counter_;  ///< single_'s counting code
   const float* bank_rows_;  ///< orientation=random from the bank: its float rows; else null
+  /// single_'s projections on the bank (finish_chunk's counts take them); else null.
+  const kernels::BankProjections* projections_ = nullptr;
   std::uint64_t seed_;
   bool usable_, from_origin_;
   /// The grid's numbers both quick paths read (nx and nxy set only for window_grid()).

@@ -15,6 +15,8 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
+#include <new>
 
 namespace vfe::kernels {
 
@@ -47,12 +49,35 @@ enum class SplitPath { fastest, portable };
 using OctantCountFn = bool (*)(const ParticleTemplate& t, const float* rows, const float tau[3],
                                std::int32_t counts[8]);
 
-/// One particle of a batch: its rotation as floats row by row (9 values) and its
-/// thresholds (as OctantCountFn's).
+/// One particle of a batch: its rotation and its thresholds (as OctantCountFn's). The
+/// rotation is its rows as floats (9 values) for batch_by_split, or its slot's projections
+/// of the template (BankProjections::of_slot) for projected_batch_by_split.
 struct OctantQuery {
-  const float* rows;
+  const float* rotation;
   float tau[3];
 };
+
+/// The template's points on each row of each rotation of the bank (kRotationBankSize; what
+/// pmm takes with orientation=random), times kSplitScale, each computed in double and
+/// rounded to float once: a count then loads a point's distance to a plane instead of
+/// computing it from the rotation. For templates of at most 64 points (split_words 1):
+/// per slot, row 0's groups x 8 values (the points in split_points' order, the last group
+/// padded by repeating the last point), then row 1's, then row 2's, slot after slot, from a
+/// 64-byte boundary. 4096 x 3 x 48 floats (2.4 MB) for the 45 points auto takes at chi = 2.
+struct BankProjections {
+  struct Free {
+    void operator()(float* p) const { ::operator delete[](p, std::align_val_t{64}); }
+  };
+  std::unique_ptr<float[], Free> values;
+  std::size_t groups = 0;  ///< groups of eight points per row
+
+  /// Slot k's three rows of projections.
+  const float* of_slot(std::size_t slot) const { return values.get() + slot * 24 * groups; }
+  explicit operator bool() const { return groups != 0; }
+};
+
+/// t's BankProjections; empty where t has no split points or more than 64 points.
+BankProjections project_on_rotation_bank(const ParticleTemplate& t);
 
 /// The count for n particles of one set of split axes, one after another in one call:
 /// counts[8 k + o] and decided[k] (1, or 0 where OctantCountFn returns false, counts then
@@ -62,10 +87,15 @@ using OctantBatchFn = void (*)(const ParticleTemplate& t, const OctantQuery* que
 
 /// The counting code per split mask (entry `split`, 1 to 7; entry 0 puts every point in
 /// octant 0) for template t (a template of at most 64 points has code for its size) on a
-/// path; look it up once per template, not per particle.
+/// path; look it up once per template, not per particle. projected_batch_by_split takes
+/// queries whose rotation is the template's BankProjections of the particle's slot (null
+/// entries where t has none: more than 64 points); the same counts and refusals as
+/// batch_by_split wherever float decides a point either way (both refuse a point within
+/// the guard band, and their errors are far below it).
 struct OctantCounter {
   OctantCountFn by_split[8];
   OctantBatchFn batch_by_split[8];
+  OctantBatchFn projected_batch_by_split[8];
 };
 const OctantCounter& octant_counter(const ParticleTemplate& t, SplitPath path = SplitPath::fastest);
 

@@ -75,6 +75,10 @@ const float* banked_random_rotation_rows(std::uint64_t index, std::uint64_t seed
 /// Rotations in the bank.
 inline constexpr std::size_t kRotationBankSize = 4096;
 
+/// The bank's rotation in slot `slot` (< kRotationBankSize): banked_random_rotation of
+/// (index, seed) is banked_rotation(rotation_bank_slot(index, seed)).
+const Eigen::Matrix3d& banked_rotation(std::size_t slot);
+
 /// rotation_bank_slot in place, on any unsigned 64-bit type: a scalar, or a GCC vector of
 /// them (several particles' slots at once, lane by lane the same values; in place, since
 /// returning a 256-bit vector would change the ABI of a build without AVX).
