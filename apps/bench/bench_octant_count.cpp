@@ -3,7 +3,7 @@
 // for templates from the 45 points method=auto takes at chi = 2 to 4000 (815 at chi = 1),
 // each counting code's sizes; the fastest code the CPU runs, the portable one, and the
 // counts from the bank's projections (templates of at most 64 points). Time per
-// particle counted.
+// particle counted; and the time to build the projections.
 #include <vfe/kernels/octant_split.hpp>
 #include <vfe/kernels/particle_template.hpp>
 
@@ -56,10 +56,18 @@ void portable(benchmark::State& state) { count_batches(state, vfe::kernels::Spli
 // The same counts from the template's projections on the rotation bank (at most 64 points).
 void projected(benchmark::State& state) { count_batches(state, vfe::kernels::SplitPath::fastest, true); }
 
+// Building a template's projections on the bank (once per engine and template).
+void build_projections(benchmark::State& state) {
+  vfe::kernels::ParticleTemplate t = vfe::kernels::make_fibonacci_template(static_cast<int>(state.range(0)));
+  vfe::kernels::prepare_octant_split(t);
+  for (auto _ : state) benchmark::DoNotOptimize(vfe::kernels::project_on_rotation_bank(t).values.get());
+}
+
 // Arguments: template points, split set (1: x, 3: x and y, 7: all three axes).
 BENCHMARK(fastest)->ArgsProduct({{45, 130, 400, 815, 2000, 4000}, {1, 3, 7}});
 BENCHMARK(portable)->ArgsProduct({{45, 815}, {1, 7}});
 BENCHMARK(projected)->ArgsProduct({{45, 64}, {1, 3, 7}});
+BENCHMARK(build_projections)->Arg(45)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 

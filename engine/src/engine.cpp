@@ -503,6 +503,10 @@ struct Engine::Impl {
     const detail::Context ctx{detail::MethodContext{opts, bank, divided}, *fused_grid().grid};
     const detail::PmmQuick quick(ctx);
     const bool hybrid = opts.method == Method::automatic;
+    // method=auto takes the blocks where it leaves every sphere to pmm's quick case.
+    const detail::QuickGrid* blocks = quick.window_grid();
+    if (blocks && hybrid && !detail::auto_counts_every_window(*quick.single_template())) blocks = nullptr;
+    projected_counts = blocks && quick.counts_from_projections();
     private_field_pass(pa, pl, [&](Scratch& s, auto&& add, const tbb::blocked_range<std::int64_t>& r) {
       // One particle record for the range, its per-particle fields set in the loop
       // (building a whole record per particle costs as much as a quick case).
@@ -515,10 +519,7 @@ struct Engine::Impl {
           detail::pmm_particle(ctx, s, particle(pa, p));
         for (const Deposit& d : s.deposits) add(d.cell, d.volume);
       };
-      // method=auto takes the blocks where it leaves every sphere to pmm's quick case.
-      const detail::QuickGrid* g = quick.window_grid();
-      if (g && hybrid && !detail::auto_counts_every_window(*quick.single_template())) g = nullptr;
-      if (g) {
+      if (const detail::QuickGrid* g = blocks) {
         // Windows and thresholds of a few spheres at once (pmm_plan.hpp), then their counts
         // (grouped by split axes: PmmQuick::finish_chunk).
         constexpr std::int64_t kChunk = detail::PmmQuick::kChunk;
@@ -662,7 +663,7 @@ struct Engine::Impl {
       pl.unit_exponent = fixed_unit_exponent(
           std::max({deterministic_volume_bound, v.shape_volume_max, v.d_max > 0 ? sphere_volume(v.d_max / 2) : 0.0}));
     const detail::TemplateBank bank =
-        templates.prepare(opts, v.d_min, v.d_max, mesh.smallest_cell_volume(), mesh.largest_cell_volume());
+        templates.prepare(opts, v.d_min, v.d_max, mesh.smallest_cell_volume(), mesh.largest_cell_volume(), pa.n);
     if ((opts.method == Method::pmm || opts.method == Method::automatic) && !bank.fixed && !bank.templates.empty())
       log->info("particle_grid=auto: {} to {} sub-elements per particle", bank.templates.front()->size(),
                 bank.templates.back()->size());
@@ -673,6 +674,7 @@ struct Engine::Impl {
     const bool fused_exact_pass = !fused && fuses_exact(pa, pl);
     if (fused_exact_pass) fused_exact(pa, pl, bank);
     const bool fused_particles = !fused && fuses_pmm(pa, pl);
+    projected_counts = false;
     if (fused_particles) fused_pmm(pa, pl, bank);
     if (!fused && !fused_particles && !fused_exact_pass) switch (mesh.kind()) {
       case MeshKind::cartesian:
@@ -1022,6 +1024,7 @@ struct Engine::Impl {
   // validation and deposits ran as one pass.
   std::int64_t counted_particles = 0;
   bool fused_pass = false;
+  bool projected_counts = false;  ///< pmm's counts took the template's projections on the bank
   /// Particles of the last compute that the box lattice's grid path took.
   std::int64_t lattice_particles = 0;
   /// method=auto: particles of the last compute on the fast path, pmm and exact.
@@ -1329,6 +1332,7 @@ double Engine::last_report_value(std::string_view key) const {
       {"overfull_volume", impl_->overfull_volume},
       {"counted_particles", double(impl_->counted_particles)},
       {"fused_pass", impl_->fused_pass ? 1.0 : 0.0},
+      {"projected_counts", impl_->have_field && impl_->projected_counts ? 1.0 : 0.0},
       {"ordered_blocks", double(impl_->have_field ? impl_->ordered_blocks : 0)},
       {"lattice_cells", impl_->mesh.lattice() ? double(impl_->mesh.cell_count()) : 0.0},
       {"lattice_particles", double(impl_->have_field ? impl_->lattice_particles : 0)},

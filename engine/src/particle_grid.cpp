@@ -51,7 +51,9 @@ const kernels::ParticleTemplate& TemplateCache::get(const Options& opts, std::in
   return *slot;
 }
 
-TemplateBank TemplateCache::prepare(const Options& opts, double d_min, double d_max, double v_min, double v_max) {
+TemplateBank TemplateCache::prepare(const Options& opts, double d_min, double d_max, double v_min, double v_max,
+                                    std::int64_t spheres) {
+  spheres_served_ += std::max<std::int64_t>(spheres, 0);
   bank_.clear();
   TemplateBank bank;
   if (opts.method != Method::pmm && opts.method != Method::automatic) return bank;
@@ -70,9 +72,10 @@ TemplateBank TemplateCache::prepare(const Options& opts, double d_min, double d_
   // One template counted with the bank's rotations: its points on their rows, once per engine.
   if (bank_.size() == 1 && bank_.front()->split_words == 1 && opts.orientation == Orientation::random &&
       opts.rotation_bank) {
-    kernels::BankProjections& p = projections_[bank_.front()];
-    if (!p) p = kernels::project_on_rotation_bank(*bank_.front());
-    bank.projections = &p;
+    auto built = projections_.find(bank_.front());
+    if (built == projections_.end() && spheres_served_ >= kSpheresBeforeProjections)
+      built = projections_.emplace(bank_.front(), kernels::project_on_rotation_bank(*bank_.front())).first;
+    if (built != projections_.end()) bank.projections = &built->second;
   }
   static std::atomic<std::uint64_t> banks{0};  // every bank of every engine: its own id
   bank.id = ++banks;

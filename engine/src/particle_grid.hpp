@@ -99,12 +99,20 @@ class TemplateCache {
   const kernels::ParticleTemplate& get(const Options& opts, std::int64_t n);
 
   /// Prepares the bank for spheres of diameters [d_min, d_max] in cells of volumes
-  /// [v_min, v_max] (nothing unless method=pmm or auto). Returns the bank; valid until the next call.
-  TemplateBank prepare(const Options& opts, double d_min, double d_max, double v_min, double v_max);
+  /// [v_min, v_max] (nothing unless method=pmm or auto), for a compute of `spheres` spheres.
+  /// Returns the bank; valid until the next call.
+  TemplateBank prepare(const Options& opts, double d_min, double d_max, double v_min, double v_max,
+                       std::int64_t spheres = 0);
+
+  /// A bank's one template gets its projections once the cache has served this many spheres
+  /// (counting the compute's own): building them takes about 0.5 ms, and saves about 1 ns per
+  /// counted sphere (docs/performance.md), so a small one-off compute does not pay for them.
+  static constexpr std::int64_t kSpheresBeforeProjections = 1000000;
 
  private:
   std::map<std::pair<int, std::int64_t>, std::unique_ptr<kernels::ParticleTemplate>> cache_;
   std::map<const kernels::ParticleTemplate*, kernels::BankProjections> projections_;  ///< built on first use
+  std::int64_t spheres_served_ = 0;  ///< spheres of every compute prepared so far
   std::vector<const kernels::ParticleTemplate*> bank_;
 };
 

@@ -46,13 +46,15 @@ Particles near_face_spheres(double h, int cells, double r, int count, bool banke
   return p;
 }
 
+/// A scene of pmm spheres and the options it runs with.
+struct PmmCase {
+  const char* name;
+  Particles p;
+  std::string options;
+};
+
 TEST(PmmCounting, EveryCellEqualsLocatingEverySubElement) {
-  struct Case {
-    const char* name;
-    Particles p;
-    std::string options;
-  };
-  std::vector<Case> cases;
+  std::vector<PmmCase> cases;
   // chi = 4, 2, 1.5 and 1 (radius 1/8, 1/4, 1/3, 1/2 of the cell), random orientations:
   // particle_grid=auto's templates of each counting code (up to 64 points, 65 to 512
   // compared one by one, more in groups).
@@ -69,7 +71,7 @@ TEST(PmmCounting, EveryCellEqualsLocatingEverySubElement) {
   cases.push_back({"periodic", random_spheres(14, 2000, -0.5, 10.5, 0.2, 0.4), " periodic=xyz"});
   cases.push_back({"block", random_spheres(15, 3000, 1.0, 9.0, 0.15, 0.5), ""});
   cases.push_back({"block near faces", near_face_spheres(1.0, 10, 0.25, 3000), " orientation=none particle_grid=45"});
-  for (const Case& c : cases) {
+  for (const PmmCase& c : cases) {
     SCOPED_TRACE(c.name);
     // The same box as a block of a larger grid (first_cell, one of them negative): its
     // cells' positions come from the larger grid's indices, which the quick cases follow.
@@ -88,6 +90,47 @@ TEST(PmmCounting, EveryCellEqualsLocatingEverySubElement) {
     EXPECT_NEAR(total(a), c.p.volume(), 1e-12 * c.p.volume());
     EXPECT_EQ(counting.last_report().outside_particles, locating.last_report().outside_particles);
   }
+}
+
+// The counts from the template's projections on the rotation bank start once an engine has
+// computed a million spheres; from then on every cell is still the one locating every
+// sub-element gives, near faces included (every sphere there refused and located in double).
+TEST(PmmCounting, ProjectedCountsEqualLocatingEverySubElement) {
+  std::vector<PmmCase> cases;
+  cases.push_back({"random, chi 2", random_spheres(31, 4000, 1.0, 9.0, 0.25, 0.25), ""});
+  cases.push_back({"random, chi 4", random_spheres(32, 4000, 1.0, 9.0, 0.125, 0.125), ""});
+  cases.push_back({"near faces, banked rotations", near_face_spheres(1.0, 10, 0.25, 4000, true),
+                   " orientation=random seed=0 particle_grid=45"});
+  cases.push_back({"64 points", random_spheres(33, 4000, 1.0, 9.0, 0.25, 0.25), " particle_grid=64"});
+  for (const PmmCase& c : cases) {
+    SCOPED_TRACE(c.name);
+    Engine counting(grid(1.0, 10, 10, 10)), locating(grid(1.0, 10, 10, 10));
+    const std::string options = "method=pmm threads=2" + c.options;
+    counting.configure(options);
+    std::vector<double> a(static_cast<std::size_t>(counting.cell_count()));
+    counting.compute(c.p.view(), a);
+    EXPECT_EQ(counting.last_report_value("projected_counts"), 0.0) << "a small first compute builds no projections";
+    std::int64_t served = std::int64_t(c.p.radii.size());
+    while (served < 1000000) {
+      counting.compute(c.p.view(), a);
+      served += std::int64_t(c.p.radii.size());
+    }
+    EXPECT_EQ(counting.last_report_value("projected_counts"), 1.0);
+    const std::vector<double> b = run(locating, c.p, "method=pmm threads=1 fast_path=0" + c.options);
+    const double v = c.p.volume() / double(c.p.radii.size());
+    expect_same_field(a, b, 1e-13 * v, c.name);
+    if (std::string(c.name).find("near faces") != std::string::npos)
+      EXPECT_EQ(counting.last_report_value("counted_particles"), 0.0);
+    else
+      EXPECT_GT(counting.last_report_value("counted_particles"), 0.3 * double(c.p.radii.size()));
+  }
+  // Rotations not from the bank: no projections, however many spheres.
+  const Particles p = random_spheres(34, 4000, 1.0, 9.0, 0.25, 0.25);
+  Engine unbanked(grid(1.0, 10, 10, 10));
+  unbanked.configure("method=pmm rotation_bank=0");
+  std::vector<double> out(static_cast<std::size_t>(unbanked.cell_count()));
+  for (int i = 0; i < 260; ++i) unbanked.compute(p.view(), out);
+  EXPECT_EQ(unbanked.last_report_value("projected_counts"), 0.0);
 }
 
 TEST(FusedDirect, EqualsTheGeneralLoopUnderEveryOutsidePolicy) {

@@ -424,6 +424,8 @@ class PmmQuick {
 
   /// The bank's one template, or null.
   const kernels::ParticleTemplate* single_template() const { return single_; }
+  /// Whether finish_chunk counts from the template's projections on the rotation bank.
+  bool counts_from_projections() const { return projections_ != nullptr; }
 
   /// plan_sphere_windows' grid for this context, or null where the quick cases need more than
   /// it decides (a block, periodic axes, several templates, rotations not from the bank,
