@@ -460,17 +460,16 @@ class PmmQuick {
                     Declined&& declined, EmptyOctants empty = EmptyOctants::skip) const {
     constexpr std::int64_t kBlock = kQuickBlock;
     // Spheres per split set (the plan's two is 0 for a sphere it does not count), then each
-    // set's first slot. Whole blocks by comparisons that vectorise (a counter in memory
-    // per sphere would chain its increments through the store).
-    const std::int64_t whole = n / kBlock;
+    // set's first slot. A block's counts as the bytes of one register, set s in byte s (16
+    // spheres cannot overflow one): a counter in memory per sphere would chain its
+    // increments through the store.
     std::int32_t per_set[8] = {};
-    for (std::int64_t b = 0; b < whole; ++b)
-      for (std::int32_t split = 1; split < 8; ++split) {
-        std::int32_t c = 0;
-        for (std::int64_t i = 0; i < kBlock; ++i) c += windows[b].two[i] == split;
-        per_set[split] += c;
-      }
-    for (std::int64_t k = whole * kBlock; k < n; ++k) ++per_set[windows[whole].two[k - whole * kBlock]];
+    for (std::int64_t b = 0; b * kBlock < n; ++b) {
+      const std::int64_t m = std::min(kBlock, n - b * kBlock);
+      std::uint64_t bytes = 0;
+      for (std::int64_t i = 0; i < m; ++i) bytes += std::uint64_t(1) << (8 * windows[b].two[i]);
+      for (int split = 1; split < 8; ++split) per_set[split] += static_cast<std::int32_t>((bytes >> (8 * split)) & 0xFF);
+    }
     std::int64_t first[9];
     first[0] = first[1] = 0;  // set 0 holds no count
     for (int split = 1; split < 8; ++split) first[split + 1] = first[split] + per_set[split];
