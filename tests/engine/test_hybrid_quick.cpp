@@ -4,12 +4,14 @@
 // chose otherwise would make a sphere's deposits depend on which of the two it met.
 #include "engine_mesh.hpp"
 #include "methods/hybrid.hpp"
+#include "methods/rectilinear.hpp"
 #include "particle_grid.hpp"
 
 #include <vfe/kernels/divided.hpp>
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <numbers>
 #include <random>
 #include <span>
@@ -42,6 +44,57 @@ TEST(TemplateMemo, GivesTheAutoRulesTemplate) {
     EXPECT_EQ(memo.bank, bank.id);
   }
   EXPECT_GT(changed, 1000);  // the sizes alternate: both entries and their replacement served
+}
+
+// The ball's box of cells that method=auto's model locates once on a graded grid, and exact
+// takes from it, is what exact located itself: the one cell of rectilinear_one_cell, else per
+// axis the cells of c - r and c + r (periodic axes continued), for balls beyond the grid,
+// wider than it and with c +- r on a node.
+TEST(BallBox, IsTheOneCellOrTheCellsOfTheBallsEnds) {
+  const kernels::ParticleTemplate divided = kernels::make_divided_template();
+  std::array<std::vector<double>, 3> nodes;
+  for (auto& x : nodes) {
+    x = {-0.003};
+    for (double dx = 0.0004; x.back() < 0.012; dx *= 1.2) x.push_back(x.back() + dx);
+  }
+  const RectilinearGrid grid(nodes);
+  std::mt19937_64 rng(6);
+  std::uniform_real_distribution<double> u(-0.006, 0.016), size(0.00005, 0.004);
+  std::int64_t one = 0, many = 0, node_ends = 0;
+  for (const unsigned periodic : {0u, 5u})
+    for (const bool fast_path : {true, false}) {
+      Options opts;
+      opts.periodic = periodic;
+      opts.fast_path = fast_path;
+      const RectilinearContext ctx{MethodContext{opts, TemplateBank{}, divided}, grid};
+      for (int i = 0; i < 20000; ++i) {
+        Eigen::Vector3d c(u(rng), u(rng), u(rng));
+        double r = size(rng);
+        if (i % 5 == 0) {  // an end on a node
+          const int d = i % 3;
+          const auto& x = nodes[static_cast<std::size_t>(d)];
+          r = 0.3 * (x[7] - x[6]);
+          c[d] = x[6 + static_cast<std::size_t>(i % 2)] + (i % 10 < 5 ? r : -r);
+          ++node_ends;
+        }
+        const BallBox box = ball_box(ctx, c, r);
+        ASSERT_EQ(box.one_cell, rectilinear_one_cell(ctx, c, Eigen::Vector3d::Constant(r))) << "ball " << i;
+        if (box.one_cell >= 0) {
+          ++one;
+          continue;
+        }
+        ++many;
+        for (int d = 0; d < 3; ++d) {
+          const bool wraps = (periodic >> d) & 1u;
+          const auto index = [&](double x) { return wraps ? periodic_axis_index(grid, d, x) : grid.axis_index(d, x); };
+          ASSERT_EQ(box.lo[d], index(c[d] - r)) << "ball " << i << " axis " << d;
+          ASSERT_EQ(box.hi[d], index(c[d] + r)) << "ball " << i << " axis " << d;
+        }
+      }
+    }
+  EXPECT_GT(one, 500);  // fast_path=1 only
+  EXPECT_GT(many, 10000);
+  EXPECT_GT(node_ends, 10000);
 }
 
 TEST(HybridQuick, TakesTheFullModelsPathForEverySphereItTakes) {

@@ -76,15 +76,13 @@ PathCosts path_costs(const RectilinearContext& ctx, Scratch& s, const Particle& 
   const RectilinearGrid& grid = ctx.grid;
   const Eigen::Vector3d& c = p.centre;
   const double r = p.radius;
-  k.fast_cell = rectilinear_one_cell(ctx, c, Eigen::Vector3d::Constant(r));
+  k.box = ball_box(ctx, c, r);
+  k.fast_cell = k.box.one_cell;
   if ((k.fast = k.fast_cell >= 0)) return k;
   const GridCosts& m = rectilinear_costs();
   double cells = 1;
-  for (int d = 0; d < 3; ++d) {
-    const bool wraps = (ctx.opts.periodic >> d) & 1u;
-    const auto index = [&](double x) { return wraps ? periodic_axis_index(grid, d, x) : grid.axis_index(d, x); };
-    cells *= double(cells_of_box(index(c[d] - r), index(c[d] + r), grid.cells()[d], wraps));
-  }
+  for (int d = 0; d < 3; ++d)
+    cells *= double(cells_of_box(k.box.lo[d], k.box.hi[d], grid.cells()[d], (ctx.opts.periodic >> d) & 1u));
   k.exact_cells = static_cast<std::int64_t>(std::min(cells, 1e18));
   k.exact = m.exact_particle + cells * m.exact_cell;
   // Locating by search costs enough that exact usually wins: when pmm with the bank's
@@ -205,7 +203,11 @@ void auto_particle(const Context& ctx, Scratch& s, const Particle& p) {
   take_cheapest(ctx, s, p, plain(ctx, s, grid_pmm), plain(ctx, s, exact_particle));
 }
 void rectilinear_auto(const RectilinearContext& ctx, Scratch& s, const Particle& p) {
-  take_cheapest(ctx, s, p, plain(ctx, s, rectilinear_pmm), plain(ctx, s, rectilinear_exact));
+  // exact takes the box of cells the model located.
+  const auto exact = [&](const Particle& q, const PathCosts* k) {
+    k ? rectilinear_exact_in_box(ctx, s, q, k->box) : rectilinear_exact(ctx, s, q);
+  };
+  take_cheapest(ctx, s, p, plain(ctx, s, rectilinear_pmm), exact);
 }
 void polymesh_auto(const PolyContext& ctx, Scratch& s, const Particle& p) {
   // The centre's cell, located once by the model.

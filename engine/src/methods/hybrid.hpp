@@ -58,6 +58,7 @@ struct PathCosts {
   /// polyMesh: when exact's walk found every cell of the ball, the particle number it gave
   /// (s.candidate_cells hold its cells until the next walk or search), else 0
   std::uint64_t walked = 0;
+  BallBox box{};  ///< rectilinear grid: the ball's box of cells (exact takes it)
 };
 PathCosts path_costs(const Context& ctx, Scratch& s, const Particle& p);
 PathCosts path_costs(const RectilinearContext& ctx, Scratch& s, const Particle& p);

@@ -248,25 +248,54 @@ void rectilinear_divided(const RectilinearContext& ctx, Scratch& s, const Partic
   deposit_points(ctx, s, p, ctx.divided, Eigen::Matrix3d::Identity(), policy);
 }
 
+BallBox ball_box(const RectilinearContext& ctx, const Eigen::Vector3d& c, double r) {
+  const RectilinearGrid& grid = ctx.grid;
+  BallBox box;
+  bool one = ctx.opts.fast_path;
+  for (int d = 0; d < 3; ++d) {
+    const std::int64_t lo = grid.axis_index(d, c[d] - r), hi = grid.axis_index(d, c[d] + r);
+    one &= lo == hi && lo >= 0 && lo < grid.cells()[d];  // rectilinear_one_cell's test
+    box.lo[d] = lo, box.hi[d] = hi;
+  }
+  if (one) {
+    box.one_cell = grid.index(box.lo[0], box.lo[1], box.lo[2]);
+    return box;
+  }
+  for (int d = 0; d < 3; ++d)
+    if (periodic(ctx, d)) {
+      box.lo[d] = periodic_axis_index(grid, d, c[d] - r);
+      box.hi[d] = periodic_axis_index(grid, d, c[d] + r);
+    }
+  return box;
+}
+
 void rectilinear_exact(const RectilinearContext& ctx, Scratch& s, const Particle& p) {
+  const BallBox box = ball_box(ctx, p.centre, p.radius);
+  if (box.one_cell >= 0) {
+    ++s.fast_path;
+    s.add(box.one_cell, p.volume);
+    return;
+  }
+  rectilinear_exact_in_box(ctx, s, p, box);
+}
+
+void rectilinear_exact_in_box(const RectilinearContext& ctx, Scratch& s, const Particle& p, const BallBox& box) {
   const RectilinearGrid& grid = ctx.grid;
   const Eigen::Vector3d& c = p.centre;
   const double r = p.radius;
-  if (take_fast_path(ctx, s, p, Eigen::Vector3d::Constant(r))) return;
   std::int64_t lo[3], hi[3];
   bool empty = false;
   for (int d = 0; d < 3; ++d) {
     if (periodic(ctx, d)) {
-      lo[d] = periodic_axis_index(grid, d, c[d] - r);
-      hi[d] = periodic_axis_index(grid, d, c[d] + r);
+      lo[d] = box.lo[d], hi[d] = box.hi[d];
       if (hi[d] - lo[d] >= (1 << 20))
         throw Error(VFE_ERROR_INVALID_ARGUMENT, "particle " + std::to_string(p.index) +
                                                     " wraps the periodic grid more than 2^20 cells; use a larger "
                                                     "periodic grid");
       continue;
     }
-    lo[d] = std::max<std::int64_t>(grid.axis_index(d, c[d] - r), 0);
-    hi[d] = std::min<std::int64_t>(grid.axis_index(d, c[d] + r), grid.cells()[d] - 1);
+    lo[d] = std::max<std::int64_t>(box.lo[d], 0);
+    hi[d] = std::min<std::int64_t>(box.hi[d], grid.cells()[d] - 1);
     if (lo[d] > hi[d]) empty = true;
   }
   bool flagged = false;
