@@ -534,13 +534,22 @@ struct Engine::Impl {
                 // An octant without sub-elements may add 0.0: a cell of the private field stays as it is.
                 detail::PmmQuick::EmptyOctants::add_zero);
           };
-          if (hybrid)  // method=auto counts its paths
+          if (hybrid) {  // method=auto counts its paths, in registers, into the Scratch once a chunk
+            std::int64_t auto_fast = 0, auto_pmm = 0;
             finish([&](std::int64_t k, bool fast) {
-              part.centre = pa.centre(chunk + k);
-              part.radius = pa.radius(chunk + k);
-              detail::auto_count_quick(ctx.grid, s, part, fast);
+              if (fast) {  // pmm's fast path: auto's when the ball too lies in the cell
+                part.centre = pa.centre(chunk + k);
+                part.radius = pa.radius(chunk + k);
+                if (detail::auto_ball_in_one_cell(ctx.grid, part)) {
+                  ++auto_fast;
+                  return;
+                }
+              }
+              ++auto_pmm;
             });
-          else
+            s.auto_fast += auto_fast;
+            s.auto_pmm += auto_pmm;
+          } else
             finish([](std::int64_t, bool) {});
           quick.commit(s, tally);
         }
