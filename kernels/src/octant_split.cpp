@@ -424,7 +424,7 @@ template <unsigned kSplit, std::size_t kGroups>
 }
 
 /// A batch of count_projected_body, the rows of the particle kAhead further asked for first:
-/// the 2.4 MB of projections do not stay in the core's caches, and the slots are random.
+/// the megabytes of projections do not stay in the core's caches, and the slots are random.
 template <unsigned kSplit, std::size_t kGroups>
 __attribute__((target("avx2,fma,popcnt"))) void count_projected_batch_avx2(const ParticleTemplate& t,
                                                                          const OctantQuery* queries, std::size_t n,

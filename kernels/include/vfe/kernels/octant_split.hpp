@@ -63,7 +63,7 @@ struct OctantQuery {
 /// computing it from the rotation. For templates of at most 64 points (split_words 1):
 /// per slot, row 0's groups x 8 values (the points in split_points' order, the last group
 /// padded by repeating the last point), then row 1's, then row 2's, slot after slot, from a
-/// 64-byte boundary. 4096 x 3 x 48 floats (2.4 MB) for the 45 points auto takes at chi = 2.
+/// 64-byte boundary. 4096 x 3 x 48 floats (2.4 MB) for 45 points.
 struct BankProjections {
   struct Free {
     void operator()(float* p) const { ::operator delete[](p, std::align_val_t{64}); }
