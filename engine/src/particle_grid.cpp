@@ -72,10 +72,12 @@ TemplateBank TemplateCache::prepare(const Options& opts, double d_min, double d_
   // One template counted with the bank's rotations: its points on their rows, once per engine.
   if (bank_.size() == 1 && bank_.front()->split_words == 1 && opts.orientation == Orientation::random &&
       opts.rotation_bank) {
-    auto built = projections_.find(bank_.front());
-    if (built == projections_.end() && spheres_served_ >= kSpheresBeforeProjections)
-      built = projections_.emplace(bank_.front(), kernels::project_on_rotation_bank(*bank_.front())).first;
-    if (built != projections_.end()) bank.projections = &built->second;
+    // One table at a time: sizes that drift over a run do not pile them up.
+    if (projected_ != bank_.front() && spheres_served_ >= kSpheresBeforeProjections) {
+      projections_ = kernels::project_on_rotation_bank(*bank_.front());
+      projected_ = bank_.front();
+    }
+    if (projected_ == bank_.front()) bank.projections = &projections_;
   }
   static std::atomic<std::uint64_t> banks{0};  // every bank of every engine: its own id
   bank.id = ++banks;

@@ -111,7 +111,8 @@ class TemplateCache {
 
  private:
   std::map<std::pair<int, std::int64_t>, std::unique_ptr<kernels::ParticleTemplate>> cache_;
-  std::map<const kernels::ParticleTemplate*, kernels::BankProjections> projections_;  ///< built on first use
+  const kernels::ParticleTemplate* projected_ = nullptr;  ///< the template projections_ holds
+  kernels::BankProjections projections_;                  ///< its projections (2 to 3 MB)
   std::int64_t spheres_served_ = 0;  ///< spheres of every compute prepared so far
   std::vector<const kernels::ParticleTemplate*> bank_;
 };

@@ -124,6 +124,24 @@ TEST(PmmCounting, ProjectedCountsEqualLocatingEverySubElement) {
     else
       EXPECT_GT(counting.last_report_value("counted_particles"), 0.3 * double(c.p.radii.size()));
   }
+  // Spheres of another size, on an engine past the million: the new template's projections
+  // replace the old ones at once, and the cells are still the straightforward ones.
+  {
+    Engine drifting(grid(1.0, 10, 10, 10));
+    drifting.configure("method=pmm threads=2");
+    const Particles before = random_spheres(35, 4000, 1.0, 9.0, 0.25, 0.25);
+    const Particles after = random_spheres(36, 4000, 1.0, 9.0, 0.125, 0.125);
+    std::vector<double> out(static_cast<std::size_t>(drifting.cell_count()));
+    for (int i = 0; i < 250; ++i) drifting.compute(before.view(), out);
+    EXPECT_EQ(drifting.last_report_value("projected_counts"), 1.0);
+    const double grid_before = drifting.last_report().particle_grid_max;
+    drifting.compute(after.view(), out);
+    EXPECT_NE(drifting.last_report().particle_grid_max, grid_before);  // another template
+    EXPECT_EQ(drifting.last_report_value("projected_counts"), 1.0);
+    Engine locating(grid(1.0, 10, 10, 10));
+    expect_same_field(out, run(locating, after, "method=pmm threads=1 fast_path=0"),
+                      1e-13 * after.volume() / double(after.radii.size()), "after the size changed");
+  }
   // Rotations not from the bank: no projections, however many spheres.
   const Particles p = random_spheres(34, 4000, 1.0, 9.0, 0.25, 0.25);
   Engine unbanked(grid(1.0, 10, 10, 10));
