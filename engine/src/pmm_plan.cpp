@@ -6,6 +6,10 @@
 
 #include <cstring>
 
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#include <immintrin.h>
+#endif
+
 namespace vfe::detail {
 namespace {
 
@@ -98,12 +102,83 @@ __attribute__((target("arch=x86-64-v3"))) void plan_all_v3(const ParticleArrays&
                                                             std::int64_t count, const QuickGrid& g, QuickWindows* out) {
   packed(pa) ? plan_block<true>(pa, first, count, g, out) : plan_block<false>(pa, first, count, g, out);
 }
-// The same for AVX-512 (still four lanes a step): the rotation slots' 64-bit products are
-// one instruction each instead of AVX2's three 32-bit ones and their shifts (6 % of pmm's
-// time at chi = 2; docs/performance.md).
+/// plan_four for eight packed spheres at once in AVX-512 registers (GCC's generic vectors of
+/// eight lanes turn into scalar code): the same operations in the same order per lane, so
+/// the same bits.
+[[gnu::always_inline]] inline __attribute__((target("arch=x86-64-v4"))) void plan_eight_packed(
+    const ParticleArrays& pa, std::int64_t p, const QuickGrid& g, QuickWindows& out, std::int64_t k) {
+  const double* c = reinterpret_cast<const double*>(pa.centres + p * 24);
+  const double* rp = reinterpret_cast<const double*>(pa.radii + p * 8);
+  __builtin_prefetch(reinterpret_cast<const char*>(c) + kPrefetchAhead * 24);
+  __builtin_prefetch(reinterpret_cast<const char*>(c) + kPrefetchAhead * 24 + 64);
+  __builtin_prefetch(reinterpret_cast<const char*>(c) + kPrefetchAhead * 24 + 128);
+  __builtin_prefetch(reinterpret_cast<const char*>(rp) + kPrefetchAhead * 8);
+  // x0 y0 z0 x1 ... z7 in three registers, transposed by two permutes per coordinate.
+  const __m512d a0 = _mm512_loadu_pd(c), a1 = _mm512_loadu_pd(c + 8), a2 = _mm512_loadu_pd(c + 16);
+  __m512d xyz[3];
+  for (int d = 0; d < 3; ++d) {
+    const __m512i first = _mm512_setr_epi64(d, d + 3, d + 6, d + 9, d + 12, d + 15 - 8 * (d + 15 >= 16), 0, 0);
+    const __m512d t = _mm512_permutex2var_pd(a0, first, a1);
+    // Lanes from a2 (elements 16 to 23): d + 15 (for d = 1, 2), d + 18 and d + 21.
+    const __m512i second = d == 0 ? _mm512_setr_epi64(0, 1, 2, 3, 4, 5, 8 + 2, 8 + 5)
+                                  : _mm512_setr_epi64(0, 1, 2, 3, 4, 8 + (d - 1), 8 + (d + 2), 8 + (d + 5));
+    xyz[d] = _mm512_permutex2var_pd(t, second, a2);
+  }
+  const __m512d r = _mm512_loadu_pd(rp);
+  const __m512d half = _mm512_mul_pd(r, _mm512_set1_pd(g.reach));
+  const __mmask8 countable_r = _mm512_cmp_pd_mask(r, _mm512_set1_pd(g.min_radius), _CMP_GT_OQ);
+  const __m512d inv_r = _mm512_maskz_mov_pd(countable_r, _mm512_div_pd(_mm512_set1_pd(1.0), r));
+  __mmask8 inside = 0xFF;
+  __m256i extra = _mm256_setzero_si256(), two = _mm256_setzero_si256(), cell = _mm256_setzero_si256();
+  __m256 tau[3];
+  const std::int32_t stride[3] = {1, g.nx, g.nxy};
+  for (int d = 0; d < 3; ++d) {
+    const __m512d x = xyz[d], origin = _mm512_set1_pd(g.origin[d]), inv_h = _mm512_set1_pd(g.inv_h[d]);
+    const __m512d a = _mm512_mul_pd(_mm512_sub_pd(_mm512_sub_pd(x, half), origin), inv_h);
+    const __m512d b = _mm512_mul_pd(_mm512_sub_pd(_mm512_add_pd(x, half), origin), inv_h);
+    inside &= _mm512_cmp_pd_mask(a, _mm512_setzero_pd(), _CMP_GE_OQ) &
+              _mm512_cmp_pd_mask(b, _mm512_set1_pd(g.hi_bound[d]), _CMP_LT_OQ);
+    // Outside lanes convert zeros: their results are not read.
+    const __m256i i = _mm512_cvttpd_epi32(_mm512_maskz_mov_pd(inside, a));
+    const __m256i j = _mm512_cvttpd_epi32(_mm512_maskz_mov_pd(inside, b));
+    const __m256i width = _mm256_sub_epi32(j, i);
+    extra = _mm256_or_si256(extra, width);
+    two = _mm256_or_si256(two, _mm256_slli_epi32(width, d));
+    cell = _mm256_add_epi32(cell, _mm256_mullo_epi32(i, _mm256_set1_epi32(stride[d])));
+    const __m512d base = _mm512_sub_pd(_mm512_mul_pd(_mm512_sub_pd(x, origin), inv_h), _mm512_cvtepi32_pd(i));
+    tau[d] = _mm512_cvtpd_ps(
+        _mm512_mul_pd(_mm512_mul_pd(_mm512_sub_pd(_mm512_set1_pd(1.0), base), _mm512_set1_pd(g.h[d])), inv_r));
+  }
+  const __mmask8 one_cell = _mm256_cmpeq_epi32_mask(extra, _mm256_setzero_si256());
+  const __mmask8 countable =
+      countable_r & _mm256_cmpeq_epi32_mask(extra, _mm256_set1_epi32(1)) & (g.countable ? 0xFF : 0);
+  __m256i kind = _mm256_maskz_mov_epi32(inside & one_cell, _mm256_set1_epi32(QuickWindows::fast));
+  kind = _mm256_mask_mov_epi32(kind, inside & countable, _mm256_set1_epi32(QuickWindows::count));
+  const __m256i counted_two = _mm256_maskz_mov_epi32(inside & countable, two);
+  const __m512d volume = _mm512_mul_pd(_mm512_mul_pd(_mm512_mul_pd(_mm512_set1_pd(k4pi3), r), r), r);
+  using v8u = std::uint64_t __attribute__((vector_size(64)));
+  v8u keys;
+  for (int l = 0; l < 8; ++l) keys[l] = pa.rotation_key(p + l);
+  kernels::rotation_bank_slots(keys, g.seed);
+  const __m256i slot = _mm512_cvtepi64_epi32(reinterpret_cast<__m512i&>(keys));
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(out.kind + k), kind);
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(out.two + k), counted_two);
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(out.cell + k), cell);
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(out.slot + k), slot);
+  for (int d = 0; d < 3; ++d) _mm256_storeu_ps(out.tau[d] + k, tau[d]);
+  _mm512_storeu_pd(out.volume + k, volume);
+}
+
+// The same for AVX-512: packed spheres eight a step (plan_eight_packed), others four, where
+// the rotation slots' 64-bit products are one instruction each instead of AVX2's three
+// 32-bit ones and their shifts (docs/performance.md).
 __attribute__((target("arch=x86-64-v4"))) void plan_all_v4(const ParticleArrays& pa, std::int64_t first,
                                                             std::int64_t count, const QuickGrid& g, QuickWindows* out) {
-  packed(pa) ? plan_block<true>(pa, first, count, g, out) : plan_block<false>(pa, first, count, g, out);
+  if (!packed(pa)) return plan_block<false>(pa, first, count, g, out);
+  std::int64_t k = 0;
+  for (; k + 8 <= count; k += 8) plan_eight_packed(pa, first + k, g, out[k / kQuickBlock], k % kQuickBlock);
+  for (; k + 4 <= count; k += 4) plan_four<true>(pa, first + k, 4, g, out[k / kQuickBlock], k % kQuickBlock);
+  if (k < count) plan_four<true>(pa, first + k, static_cast<int>(count - k), g, out[k / kQuickBlock], k % kQuickBlock);
 }
 bool has_v3() {
   static const bool yes = __builtin_cpu_supports("x86-64-v3");

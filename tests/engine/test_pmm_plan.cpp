@@ -79,25 +79,28 @@ Expected oracle(const QuickGrid& g, const double* c, double r) {
 }
 
 /// Spheres as records of `stride` doubles (x, y, z, r first), and host ids (large, so the
-/// hash's 64-bit products matter).
+/// hash's 64-bit products matter); `packed`: the same spheres as the packed arrays a host
+/// passes most often (centres 3n doubles, radii n), which the planning loads its own way.
 struct Spheres {
-  std::vector<double> records;
+  std::vector<double> records, centres, radii;
   std::vector<std::int64_t> ids;
   int stride = 4;
-  bool with_ids = false;
+  bool with_ids = false, packed = false;
   std::int64_t n() const { return static_cast<std::int64_t>(records.size()) / stride; }
   void add(double x, double y, double z, double r) {
     records.insert(records.end(), {x, y, z, r});
     records.resize(records.size() + static_cast<std::size_t>(stride - 4), -7.0);
+    centres.insert(centres.end(), {x, y, z});
+    radii.push_back(r);
     ids.push_back(std::int64_t(0x7654321) * static_cast<std::int64_t>(ids.size()) + 0x123456789abcll);
   }
   ParticleArrays arrays() const {
     ParticleArrays pa;
     pa.n = n();
-    pa.centres = reinterpret_cast<const char*>(records.data());
-    pa.centres_stride = 8 * stride;
-    pa.radii = reinterpret_cast<const char*>(records.data() + 3);
-    pa.radii_stride = 8 * stride;
+    pa.centres = reinterpret_cast<const char*>(packed ? centres.data() : records.data());
+    pa.centres_stride = packed ? 24 : 8 * stride;
+    pa.radii = reinterpret_cast<const char*>(packed ? radii.data() : records.data() + 3);
+    pa.radii_stride = packed ? 8 : 8 * stride;
     if (with_ids) pa.ids = reinterpret_cast<const char*>(ids.data());
     return pa;
   }
@@ -168,18 +171,19 @@ void expect_oracle(const Spheres& s, PlanBuild build, std::int64_t block) {
 }
 
 TEST(PmmPlan, BothBuildsGiveTheOneSphereDecisionsBitForBit) {
-  for (const int stride : {4, 5})
+  for (const int stride : {4, 5, 0})  // 0: packed arrays
     for (const bool ids : {false, true})
       for (const PlanBuild build : {PlanBuild::fastest, PlanBuild::baseline, PlanBuild::avx2})
         for (const std::int64_t block : {std::int64_t(1), std::int64_t(3), std::int64_t(4), std::int64_t(7),
                                          detail::kQuickBlock, std::int64_t(37), std::int64_t(256)}) {
-          SCOPED_TRACE("stride " + std::to_string(stride) + (ids ? " ids" : "") +
+          SCOPED_TRACE((stride ? "stride " + std::to_string(stride) : std::string("packed")) + (ids ? " ids" : "") +
                        (build == PlanBuild::fastest    ? " fastest"
                         : build == PlanBuild::baseline ? " baseline"
                                                        : " avx2") +
                        " block " + std::to_string(block));
-          Spheres s = test_spheres(stride);
+          Spheres s = test_spheres(stride ? stride : 4);
           s.with_ids = ids;
+          s.packed = stride == 0;
           expect_oracle(s, build, block);
         }
 }
