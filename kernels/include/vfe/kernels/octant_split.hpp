@@ -89,9 +89,9 @@ using OctantBatchFn = void (*)(const ParticleTemplate& t, const OctantQuery* que
 /// octant 0) for template t (a template of at most 64 points has code for its size) on a
 /// path; look it up once per template, not per particle. projected_batch_by_split takes
 /// queries whose rotation is the template's BankProjections of the particle's slot (null
-/// entries where t has none: more than 64 points); the same counts and refusals as
-/// batch_by_split wherever float decides a point either way (both refuse a point within
-/// the guard band, and their errors are far below it).
+/// entries where t has none: more than 64 points). Where both decide, they give the same
+/// counts (the double count); both refuse a point within the guard band, and their float
+/// errors are far below it, so their refusals can differ only for a point at its edge.
 struct OctantCounter {
   OctantCountFn by_split[8];
   OctantBatchFn batch_by_split[8];
