@@ -107,15 +107,14 @@ BankProjections project_on_rotation_bank(const ParticleTemplate& t) {
   BankProjections b;
   const std::size_t n = t.size();
   if (t.split_words != 1) return b;  // no split points, or more than 64 (those are grouped)
-  const std::size_t groups = (n + 7) / 8, per_slot = 24 * groups;
-  b.values.reset(new (std::align_val_t{64}) float[kRotationBankSize * per_slot]);
-  b.groups = groups;
+  b.row = projection_row(n);
+  b.values.reset(new (std::align_val_t{64}) float[kRotationBankSize * 3 * b.row]);
   for (std::size_t slot = 0; slot < kRotationBankSize; ++slot) {
     const Eigen::Matrix3d& R = banked_rotation(slot);
-    float* out = b.values.get() + slot * per_slot;
+    float* out = b.values.get() + slot * 3 * b.row;
     for (int d = 0; d < 3; ++d)
-      for (std::size_t s = 0; s < 8 * groups; ++s)  // split_points' order: the template's (ungrouped)
-        out[d * 8 * groups + s] = static_cast<float>(kSplitScale * R.row(d).dot(t.points[std::min(s, n - 1)]));
+      for (std::size_t s = 0; s < b.row; ++s)  // split_points' order: the template's (ungrouped)
+        out[d * b.row + s] = static_cast<float>(kSplitScale * R.row(d).dot(t.points[std::min(s, n - 1)]));
   }
   return b;
 }
@@ -153,29 +152,20 @@ void counts_from_masks(const ParticleTemplate& t, const SplitMasks& m, unsigned 
 }
 
 /// The straightforward float comparisons, point by point: the path of CPUs without AVX2
-/// and the check of the vector path.
-bool count_portable(const ParticleTemplate& t, const float* rows, const float tau[3], unsigned split,
+/// and the check of the vector path. distance(d, s): point s's R_d . q, scaled.
+template <class Distance>
+bool count_portable(const ParticleTemplate& t, const Distance& distance, const float tau[3], unsigned split,
                     std::int32_t counts[8]) {
-  const std::size_t words = t.split_words, stride = words * 64;
-  const float* x = t.split_points.data();
-  const float* y = x + stride;
-  const float* z = y + stride;
   const float scale = static_cast<float>(kSplitScale), guard = 0.5f;  // the points are scaled
   SplitMasks m;
   int a = 0;
   for (int d = 0; d < 3; ++d) {
     if (!((split >> d) & 1u)) continue;
-    const float* r = rows + 3 * d;
-    for (std::size_t w = 0; w < words; ++w) {
-      std::uint64_t above = 0, near = 0;
-      for (int b = 0; b < 64; ++b) {
-        const std::size_t s = w * 64 + b;
-        const float dot = r[0] * x[s] + r[1] * y[s] + r[2] * z[s];
-        above |= std::uint64_t(dot >= scale * tau[d]) << b;
-        near |= std::uint64_t(std::fabs(dot - scale * tau[d]) < guard) << b;
-      }
-      m.above[a][w] = above;
-      m.near |= near & valid_bits(t.size(), words, w);
+    for (std::size_t w = 0; w < t.split_words; ++w) m.above[a][w] = 0;
+    for (std::size_t s = 0; s < t.size(); ++s) {
+      const float dot = distance(d, s);
+      m.above[a][s / 64] |= std::uint64_t(dot >= scale * tau[d]) << (s % 64);
+      m.near |= std::uint64_t(std::fabs(dot - scale * tau[d]) < guard) << (s % 64);
     }
     ++a;
   }
@@ -184,38 +174,27 @@ bool count_portable(const ParticleTemplate& t, const float* rows, const float ta
   return true;
 }
 
+/// count_portable from R as float rows.
 template <unsigned kSplit>
 bool count_portable_split(const ParticleTemplate& t, const float* rows, const float tau[3], std::int32_t counts[8]) {
-  return count_portable(t, rows, tau, kSplit, counts);
+  const std::size_t stride = t.split_words * 64;
+  const float* x = t.split_points.data();
+  return count_portable(
+      t,
+      [&](int d, std::size_t s) {
+        const float* r = rows + 3 * d;
+        return r[0] * x[s] + r[1] * x[stride + s] + r[2] * x[2 * stride + s];
+      },
+      tau, kSplit, counts);
 }
 
-/// count_portable from the slot's projections (BankProjections::of_slot) instead of the rows.
-bool count_projected_portable(const ParticleTemplate& t, const float* projections, const float tau[3],
-                              unsigned split, std::int32_t counts[8]) {
-  const std::size_t row = 8 * ((t.size() + 7) / 8);
-  const float scale = static_cast<float>(kSplitScale), guard = 0.5f;
-  SplitMasks m;
-  int a = 0;
-  for (int d = 0; d < 3; ++d) {
-    if (!((split >> d) & 1u)) continue;
-    const float* distance = projections + d * row;
-    std::uint64_t above = 0, near = 0;
-    for (std::size_t s = 0; s < t.size(); ++s) {
-      above |= std::uint64_t(distance[s] >= scale * tau[d]) << s;
-      near |= std::uint64_t(std::fabs(distance[s] - scale * tau[d]) < guard) << s;
-    }
-    m.above[a++][0] = above;
-    m.near |= near;
-  }
-  if (m.near) return false;
-  counts_from_masks(t, m, split, counts);
-  return true;
-}
-
+/// count_portable from the slot's projections (BankProjections::of_slot).
 template <unsigned kSplit>
 bool count_projected_portable_split(const ParticleTemplate& t, const float* projections, const float tau[3],
                                     std::int32_t counts[8]) {
-  return count_projected_portable(t, projections, tau, kSplit, counts);
+  const std::size_t row = projection_row(t.size());
+  return count_portable(
+      t, [&](int d, std::size_t s) { return projections[d * row + s]; }, tau, kSplit, counts);
 }
 
 /// No split axis: one octant holds every point.
@@ -399,7 +378,7 @@ struct ProjectedDistances {
     constexpr const int(&axis)[3] = SplitAxes<kSplit>::axis;
 #pragma GCC unroll 3
     for (int a = 0; a < kAxes; ++a) {
-      row[a] = projections + axis[a] * 8 * kGroups;
+      row[a] = projections + axis[a] * projection_row(8 * kGroups);
       shift[a] = _mm256_set1_ps(tau[axis[a]] * -static_cast<float>(kSplitScale));
     }
   }
@@ -425,11 +404,13 @@ template <unsigned kSplit, std::size_t kGroups>
 
 /// A batch of count_projected_body, the rows of the particle kAhead further asked for first:
 /// the megabytes of projections do not stay in the core's caches, and the slots are random.
+/// A row starts on a 32-byte boundary and holds whole 32-byte groups, so steps of a line
+/// from its start reach every line it spans.
 template <unsigned kSplit, std::size_t kGroups>
 __attribute__((target("avx2,fma,popcnt"))) void count_projected_batch_avx2(const ParticleTemplate& t,
                                                                          const OctantQuery* queries, std::size_t n,
                                                                          std::int32_t* counts, std::uint8_t* decided) {
-  constexpr std::size_t kAhead = 8, kRowBytes = 32 * kGroups;
+  constexpr std::size_t kAhead = 8, kRowBytes = 4 * projection_row(8 * kGroups);
   constexpr const int(&axis)[3] = SplitAxes<kSplit>::axis;
   const std::size_t points = t.size();
   for (std::size_t k = 0; k < n; ++k) {
@@ -440,7 +421,6 @@ __attribute__((target("avx2,fma,popcnt"))) void count_projected_batch_avx2(const
         const char* row = ahead + axis[a] * kRowBytes;
 #pragma GCC unroll 4
         for (std::size_t b = 0; b < kRowBytes; b += 64) __builtin_prefetch(row + b);
-        __builtin_prefetch(row + kRowBytes - 1);
       }
     }
     decided[k] = count_projected_body<kSplit, kGroups>(points, queries[k].rotation, queries[k].tau, counts + 8 * k);

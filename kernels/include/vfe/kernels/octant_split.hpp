@@ -57,23 +57,27 @@ struct OctantQuery {
   float tau[3];
 };
 
+/// Floats per row of BankProjections for a template of n points: whole groups of eight (the
+/// last padded by repeating the last point).
+constexpr std::size_t projection_row(std::size_t n) { return 8 * ((n + 7) / 8); }
+
 /// The template's points on each row of each rotation of the bank (kRotationBankSize; what
 /// pmm takes with orientation=random), times kSplitScale, each computed in double and
 /// rounded to float once: a count then loads a point's distance to a plane instead of
 /// computing it from the rotation. For templates of at most 64 points (split_words 1):
-/// per slot, row 0's groups x 8 values (the points in split_points' order, the last group
-/// padded by repeating the last point), then row 1's, then row 2's, slot after slot, from a
-/// 64-byte boundary. 4096 x 3 x 48 floats (2.4 MB) for 45 points.
+/// per slot, row 0's projection_row(n) values (the points in split_points' order), then
+/// row 1's, then row 2's, slot after slot, from a 64-byte boundary. 4096 x 3 x 48 floats
+/// (2.4 MB) for 45 points.
 struct BankProjections {
   struct Free {
     void operator()(float* p) const { ::operator delete[](p, std::align_val_t{64}); }
   };
   std::unique_ptr<float[], Free> values;
-  std::size_t groups = 0;  ///< groups of eight points per row
+  std::size_t row = 0;  ///< floats per row: projection_row of the template's size
 
   /// Slot k's three rows of projections.
-  const float* of_slot(std::size_t slot) const { return values.get() + slot * 24 * groups; }
-  explicit operator bool() const { return groups != 0; }
+  const float* of_slot(std::size_t slot) const { return values.get() + slot * 3 * row; }
+  explicit operator bool() const { return row != 0; }
 };
 
 /// t's BankProjections; empty where t has no split points or more than 64 points.
