@@ -537,15 +537,11 @@ struct Engine::Impl {
           if (hybrid) {  // method=auto counts its paths, in registers, into the Scratch once a chunk
             std::int64_t auto_fast = 0, auto_pmm = 0;
             finish([&](std::int64_t k, bool fast) {
-              if (fast) {  // pmm's fast path: auto's when the ball too lies in the cell
+              if (fast) {  // only a fast path asks where the ball lies
                 part.centre = pa.centre(chunk + k);
                 part.radius = pa.radius(chunk + k);
-                if (detail::auto_ball_in_one_cell(ctx.grid, part)) {
-                  ++auto_fast;
-                  return;
-                }
               }
-              ++auto_pmm;
+              detail::auto_count_quick(ctx.grid, part, fast, auto_fast, auto_pmm);
             });
             s.auto_fast += auto_fast;
             s.auto_pmm += auto_pmm;

@@ -107,24 +107,26 @@ __attribute__((target("arch=x86-64-v3"))) void plan_all_v3(const ParticleArrays&
 /// the same bits.
 [[gnu::always_inline]] inline __attribute__((target("arch=x86-64-v4"))) void plan_eight_packed(
     const ParticleArrays& pa, std::int64_t p, const QuickGrid& g, QuickWindows& out, std::int64_t k) {
-  const double* c = reinterpret_cast<const double*>(pa.centres + p * 24);
-  const double* rp = reinterpret_cast<const double*>(pa.radii + p * 8);
-  __builtin_prefetch(reinterpret_cast<const char*>(c) + kPrefetchAhead * 24);
-  __builtin_prefetch(reinterpret_cast<const char*>(c) + kPrefetchAhead * 24 + 64);
-  __builtin_prefetch(reinterpret_cast<const char*>(c) + kPrefetchAhead * 24 + 128);
-  __builtin_prefetch(reinterpret_cast<const char*>(rp) + kPrefetchAhead * 8);
-  // x0 y0 z0 x1 ... z7 in three registers, transposed by two permutes per coordinate.
+  const char* cb = pa.centres + p * 24;
+  const char* rb = pa.radii + p * 8;
+  prefetch_spheres<true>(cb, rb, 24, 8);
+  prefetch_spheres<true>(cb + 4 * 24, rb + 4 * 8, 24, 8);
+  const double* c = reinterpret_cast<const double*>(cb);
+  // x0 y0 z0 x1 ... z7 in three registers, transposed by two permutes per coordinate: lane l
+  // of coordinate d is element 3 l + d, from a0 and a1 below 16, else from a2.
   const __m512d a0 = _mm512_loadu_pd(c), a1 = _mm512_loadu_pd(c + 8), a2 = _mm512_loadu_pd(c + 16);
   __m512d xyz[3];
   for (int d = 0; d < 3; ++d) {
-    const __m512i first = _mm512_setr_epi64(d, d + 3, d + 6, d + 9, d + 12, d + 15 - 8 * (d + 15 >= 16), 0, 0);
+    // Lanes 0 to 4 (and 5 for d = 0, element 15) from a0 and a1; the second permute fills the rest.
+    const __m512i first = _mm512_setr_epi64(d, d + 3, d + 6, d + 9, d + 12, d == 0 ? 15 : 0, 0, 0);
     const __m512d t = _mm512_permutex2var_pd(a0, first, a1);
-    // Lanes from a2 (elements 16 to 23): d + 15 (for d = 1, 2), d + 18 and d + 21.
+    // Lanes from a2 (its index 8 + element - 16): elements 18 and 21 for d = 0, else d + 15,
+    // d + 18 and d + 21.
     const __m512i second = d == 0 ? _mm512_setr_epi64(0, 1, 2, 3, 4, 5, 8 + 2, 8 + 5)
                                   : _mm512_setr_epi64(0, 1, 2, 3, 4, 8 + (d - 1), 8 + (d + 2), 8 + (d + 5));
     xyz[d] = _mm512_permutex2var_pd(t, second, a2);
   }
-  const __m512d r = _mm512_loadu_pd(rp);
+  const __m512d r = _mm512_loadu_pd(reinterpret_cast<const double*>(rb));
   const __m512d half = _mm512_mul_pd(r, _mm512_set1_pd(g.reach));
   const __mmask8 countable_r = _mm512_cmp_pd_mask(r, _mm512_set1_pd(g.min_radius), _CMP_GT_OQ);
   const __m512d inv_r = _mm512_maskz_mov_pd(countable_r, _mm512_div_pd(_mm512_set1_pd(1.0), r));

@@ -345,8 +345,16 @@ class PmmQuick {
       grid_.reach = single_->reach;
       grid_.countable = !single_->split_points.empty();
     }
-    if (window_grid_ && ctx.bank.projections && counter_->projected_batch_by_split[1])
-      projections_ = ctx.bank.projections;
+    // A counted sphere's query: its bank slot's projections where the bank has them for the
+    // template, else its slot's float rows.
+    projected_ = window_grid_ && ctx.bank.projections && counter_->projected_batch_by_split[1];
+    if (projected_) {
+      query_base_ = ctx.bank.projections->of_slot(0);
+      query_stride_ = static_cast<std::int64_t>(ctx.bank.projections->of_slot(1) - query_base_);
+    } else {
+      query_base_ = bank_rows_;
+      query_stride_ = 9;
+    }
     grid_.seed = seed_;
     grid_.nx = static_cast<std::int32_t>(window_grid_ ? nx_ : 0);
     grid_.nxy = static_cast<std::int32_t>(window_grid_ ? nxy_ : 0);
@@ -425,7 +433,7 @@ class PmmQuick {
   /// The bank's one template, or null.
   const kernels::ParticleTemplate* single_template() const { return single_; }
   /// Whether finish_chunk counts from the template's projections on the rotation bank.
-  bool counts_from_projections() const { return projections_ != nullptr; }
+  bool counts_from_projections() const { return projected_; }
 
   /// plan_sphere_windows' grid for this context, or null where the quick cases need more than
   /// it decides (a block, periodic axes, several templates, rotations not from the bank,
@@ -491,9 +499,7 @@ class PmmQuick {
           sphere[slot] = static_cast<std::uint16_t>(k);
           cell[slot] = w.cell[i];
           volume[slot] = w.volume[i];
-          query[slot] = {projections_ ? projections_->of_slot(static_cast<std::size_t>(w.slot[i]))
-                                      : bank_rows_ + 9 * std::int64_t(w.slot[i]),
-                         {w.tau[0][i], w.tau[1][i], w.tau[2][i]}};
+          query[slot] = {query_base_ + query_stride_ * w.slot[i], {w.tau[0][i], w.tau[1][i], w.tau[2][i]}};
         } else if (w.kind[i] == QuickWindows::fast) {
           ++tally.fast;
           sink(w.cell[i], w.volume[i]);
@@ -509,7 +515,7 @@ class PmmQuick {
     for (unsigned split = 1; split < 8; ++split) {  // a count has a split axis: set 0 holds no count
       const std::int64_t begin = first[split], end = first[split + 1];
       if (begin == end) continue;
-      (projections_ ? counter_->projected_batch_by_split : counter_->batch_by_split)[split](
+      (projected_ ? counter_->projected_batch_by_split : counter_->batch_by_split)[split](
           *single_, query + begin, static_cast<std::size_t>(end - begin), counts + 8 * begin, decided + begin);
       for (std::int64_t slot = begin; slot < end; ++slot) {
         if (!decided[slot]) {
@@ -538,8 +544,11 @@ class PmmQuick {
   const kernels::ParticleTemplate* single_;  ///< the bank's one template, or null
   const kernels::OctantCounter* counter_;  ///< single_'s counting code
   const float* bank_rows_;  ///< orientation=random from the bank: its float rows; else null
-  /// single_'s projections on the bank (finish_chunk's counts take them); else null.
-  const kernels::BankProjections* projections_ = nullptr;
+  /// finish_chunk counts from single_'s projections on the bank; its query of bank slot k
+  /// is query_base_ + query_stride_ k (the projections' rows, else the float rotation rows).
+  bool projected_ = false;
+  const float* query_base_ = nullptr;
+  std::int64_t query_stride_ = 0;
   std::uint64_t seed_;
   bool usable_, from_origin_;
   /// The grid's numbers both quick paths read (nx and nxy set only for window_grid()).

@@ -86,17 +86,16 @@ inline bool auto_counts_every_window(const kernels::ParticleTemplate& t) {
   return pmm_counted_cost(t) < m.exact_octant_particle + 2 * m.exact_octant_cell;
 }
 
-/// Whether a sphere that pmm's quick case took by its fast path (the template in one cell)
-/// is auto's fast path too: the ball itself lies in that cell.
-inline bool auto_ball_in_one_cell(const CartesianGrid& grid, const Particle& p) {
+/// Counts a sphere that pmm's quick case took for auto into auto_fast or auto_pmm: its fast
+/// path (the template in one cell) is auto's when the ball itself lies in the cell, else (or
+/// for a count) the sphere took pmm. p is read only for a fast path, so a caller may leave
+/// it unset for a count.
+inline void auto_count_quick(const CartesianGrid& grid, const Particle& p, bool fast_path, std::int64_t& auto_fast,
+                             std::int64_t& auto_pmm) {
   std::int64_t lo[3], hi[3];
-  return exact_quick_window(grid, p, lo, hi) && lo[0] == hi[0] && lo[1] == hi[1] && lo[2] == hi[2];
-}
-
-/// Counts a sphere that pmm's quick case took for auto: its fast path is auto's when the
-/// ball itself lies in the cell, else (or for a count) the sphere took pmm.
-inline void auto_count_quick(const CartesianGrid& grid, Scratch& s, const Particle& p, bool fast_path) {
-  ++(fast_path && auto_ball_in_one_cell(grid, p) ? s.auto_fast : s.auto_pmm);
+  ++(fast_path && exact_quick_window(grid, p, lo, hi) && lo[0] == hi[0] && lo[1] == hi[1] && lo[2] == hi[2]
+         ? auto_fast
+         : auto_pmm);
 }
 
 /// auto's quick case for a sphere on a Cartesian grid, the choice the full model
@@ -119,7 +118,7 @@ template <class Sink>
     // exact's window is not needed: pmm's quick case decides.
     const std::int64_t fast = s.fast_path;
     if (!quick(s, p, sink, empty)) return false;
-    auto_count_quick(grid, s, p, s.fast_path != fast);
+    auto_count_quick(grid, p, s.fast_path != fast, s.auto_fast, s.auto_pmm);
     return true;
   }
   std::int64_t lo[3], hi[3];
