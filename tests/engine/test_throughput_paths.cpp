@@ -3,6 +3,7 @@
 // pass against the general particle loop (accumulation=atomic takes it). The general paths
 // are the references: a sub-element in another cell moves V/n, far above the tolerances.
 #include "particles.hpp"
+#include "particle_grid.hpp"
 
 #include <vfe/kernels/particle_template.hpp>
 
@@ -111,7 +112,7 @@ TEST(PmmCounting, ProjectedCountsEqualLocatingEverySubElement) {
     counting.compute(c.p.view(), a);
     EXPECT_EQ(counting.last_report_value("projected_counts"), 0.0) << "a small first compute builds no projections";
     std::int64_t served = std::int64_t(c.p.radii.size());
-    while (served < 1000000) {
+    while (served < detail::TemplateCache::kSpheresBeforeProjections) {
       counting.compute(c.p.view(), a);
       served += std::int64_t(c.p.radii.size());
     }
@@ -132,7 +133,9 @@ TEST(PmmCounting, ProjectedCountsEqualLocatingEverySubElement) {
     const Particles before = random_spheres(35, 4000, 1.0, 9.0, 0.25, 0.25);
     const Particles after = random_spheres(36, 4000, 1.0, 9.0, 0.125, 0.125);
     std::vector<double> out(static_cast<std::size_t>(drifting.cell_count()));
-    for (int i = 0; i < 250; ++i) drifting.compute(before.view(), out);
+    for (std::int64_t served = 0; served < detail::TemplateCache::kSpheresBeforeProjections;
+         served += std::int64_t(before.radii.size()))
+      drifting.compute(before.view(), out);
     EXPECT_EQ(drifting.last_report_value("projected_counts"), 1.0);
     const double grid_before = drifting.last_report().particle_grid_max;
     drifting.compute(after.view(), out);
@@ -147,7 +150,9 @@ TEST(PmmCounting, ProjectedCountsEqualLocatingEverySubElement) {
   Engine unbanked(grid(1.0, 10, 10, 10));
   unbanked.configure("method=pmm rotation_bank=0");
   std::vector<double> out(static_cast<std::size_t>(unbanked.cell_count()));
-  for (int i = 0; i < 260; ++i) unbanked.compute(p.view(), out);
+  for (std::int64_t served = 0; served < 2 * detail::TemplateCache::kSpheresBeforeProjections;
+       served += std::int64_t(p.radii.size()))
+    unbanked.compute(p.view(), out);
   EXPECT_EQ(unbanked.last_report_value("projected_counts"), 0.0);
 }
 
