@@ -521,18 +521,16 @@ struct Engine::Impl {
       };
       if (const detail::QuickGrid* g = blocks) {
         // Windows and thresholds of a few spheres at once (pmm_plan.hpp), then their counts
-        // (grouped by split axes: PmmQuick::finish_chunk).
+        // (sorted by path: PmmQuick::finish_chunk).
         constexpr std::int64_t kChunk = detail::PmmQuick::kChunk;
-        detail::QuickWindows planned[kChunk / detail::kQuickBlock];
+        detail::QuickWindows planned;
         for (std::int64_t chunk = r.begin(); chunk < r.end(); chunk += kChunk) {
           const std::int64_t n = std::min(kChunk, r.end() - chunk);
           detail::plan_sphere_windows(pa, chunk, n, *g, planned);
           detail::PmmQuick::Tally tally;
           auto finish = [&](auto&& taken) {
             quick.finish_chunk(
-                tally, planned, n, add, taken, [&](std::int64_t k) { general(chunk + k); },
-                // An octant without sub-elements may add 0.0: a cell of the private field stays as it is.
-                detail::PmmQuick::EmptyOctants::add_zero);
+                tally, planned, n, add, taken, [&](std::int64_t k) { general(chunk + k); });
           };
           if (hybrid) {  // method=auto counts its paths, in registers, into the Scratch once a chunk
             std::int64_t auto_fast = 0, auto_pmm = 0;
@@ -598,6 +596,20 @@ struct Engine::Impl {
   /// engine's threads), adding straight into each thread's private field:
   /// body(scratch, add, block) with add(cell, volume), cell a cell of fused_grid(). The
   /// frame of the fused passes.
+  /// A fused pass's add into a thread's field: add(cell, volume), and prefetch(cell) of the
+  /// line a later add will write (through the lattice's map where kMapped).
+  template <bool kMapped>
+  struct FieldAdd {
+    double* field;
+    const std::int64_t* map;
+    [[gnu::always_inline]] void operator()(std::int64_t cell, double v) const {
+      field[kMapped ? map[cell] : cell] += v;
+    }
+    [[gnu::always_inline]] void prefetch(std::int64_t cell) const {
+      __builtin_prefetch(field + (kMapped ? map[cell] : cell), 1);
+    }
+  };
+
   template <class Body>
   void private_field_pass(const ParticleArrays& pa, const detail::AccumulationPlan& pl, Body&& body) {
     const std::int64_t* const map = fused_grid().cell_map;
@@ -609,9 +621,9 @@ struct Engine::Impl {
           Scratch& s = scratch.local();
           if (on_lattice) s.lattice_particles += r.size();
           if (map)
-            body(s, [field, map](std::int64_t cell, double v) { field[map[cell]] += v; }, r);
+            body(s, FieldAdd<true>{field, map}, r);
           else
-            body(s, [field](std::int64_t cell, double v) { field[cell] += v; }, r);
+            body(s, FieldAdd<false>{field, nullptr}, r);
         });
       });
       return 0;

@@ -64,42 +64,38 @@ template <bool kPacked>
   }
   const v4i in = __builtin_convertvector(inside, v4i), large = __builtin_convertvector(countable_r, v4i);
   const v4i countable = large & (extra == 1) & (g.countable ? v4i{} - 1 : v4i{});
-  const v4i counted = in & countable;
-  const v4i kind = in & (((extra == 0) & std::int32_t{QuickWindows::fast}) | (countable & std::int32_t{QuickWindows::count}));
-  const v4i counted_two = two & counted;
+  const v4i counted = in & countable, fast = in & (extra == 0);
+  const v4i path = (two & counted) | (~(counted | fast) & std::int32_t{QuickWindows::general});
   const v4d volume = k4pi3 * r * r * r;
   v4u keys;
   rotation_keys(pa, p, lanes, keys);
   kernels::rotation_bank_slots(keys, g.seed);
   const v4i slot = __builtin_convertvector(keys, v4i);
-  std::memcpy(out.kind + k, &kind, sizeof kind);
-  std::memcpy(out.two + k, &counted_two, sizeof counted_two);
+  std::memcpy(out.path + k, &path, sizeof path);
   std::memcpy(out.cell + k, &cell, sizeof cell);
   std::memcpy(out.slot + k, &slot, sizeof slot);
   for (int d = 0; d < 3; ++d) std::memcpy(out.tau[d] + k, &tau[d], sizeof tau[d]);
   std::memcpy(out.volume + k, &volume, sizeof volume);
 }
 
-/// Spheres [first, first + count) into out[0], out[1], ... (kQuickBlock spheres each; four
-/// divides kQuickBlock, so a step stays in one block).
+/// Spheres [first, first + count) into out.
 template <bool kPacked>
 [[gnu::always_inline]] inline void plan_block(const ParticleArrays& pa, std::int64_t first, std::int64_t count,
-                                              const QuickGrid& g, QuickWindows* out) {
+                                              const QuickGrid& g, QuickWindows& out) {
   std::int64_t k = 0;
-  for (; k + 4 <= count; k += 4) plan_four<kPacked>(pa, first + k, 4, g, out[k / kQuickBlock], k % kQuickBlock);
-  if (k < count)
-    plan_four<kPacked>(pa, first + k, static_cast<int>(count - k), g, out[k / kQuickBlock], k % kQuickBlock);
+  for (; k + 4 <= count; k += 4) plan_four<kPacked>(pa, first + k, 4, g, out, k);
+  if (k < count) plan_four<kPacked>(pa, first + k, static_cast<int>(count - k), g, out, k);
 }
 
 void plan_all(const ParticleArrays& pa, std::int64_t first, std::int64_t count, const QuickGrid& g,
-              QuickWindows* out) {
+              QuickWindows& out) {
   packed(pa) ? plan_block<true>(pa, first, count, g, out) : plan_block<false>(pa, first, count, g, out);
 }
 
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
 #define VFE_PLAN_V3 1
 __attribute__((target("arch=x86-64-v3"))) void plan_all_v3(const ParticleArrays& pa, std::int64_t first,
-                                                            std::int64_t count, const QuickGrid& g, QuickWindows* out) {
+                                                            std::int64_t count, const QuickGrid& g, QuickWindows& out) {
   packed(pa) ? plan_block<true>(pa, first, count, g, out) : plan_block<false>(pa, first, count, g, out);
 }
 /// plan_four for eight packed spheres at once in AVX-512 registers (GCC's generic vectors of
@@ -154,17 +150,16 @@ __attribute__((target("arch=x86-64-v3"))) void plan_all_v3(const ParticleArrays&
   const __mmask8 one_cell = _mm256_cmpeq_epi32_mask(extra, _mm256_setzero_si256());
   const __mmask8 countable =
       countable_r & _mm256_cmpeq_epi32_mask(extra, _mm256_set1_epi32(1)) & (g.countable ? 0xFF : 0);
-  __m256i kind = _mm256_maskz_mov_epi32(inside & one_cell, _mm256_set1_epi32(QuickWindows::fast));
-  kind = _mm256_mask_mov_epi32(kind, inside & countable, _mm256_set1_epi32(QuickWindows::count));
-  const __m256i counted_two = _mm256_maskz_mov_epi32(inside & countable, two);
+  const __mmask8 counted = inside & countable, fast = inside & one_cell;
+  const __m256i path = _mm256_mask_mov_epi32(_mm256_maskz_mov_epi32(counted, two), ~(counted | fast),
+                                             _mm256_set1_epi32(QuickWindows::general));
   const __m512d volume = _mm512_mul_pd(_mm512_mul_pd(_mm512_mul_pd(_mm512_set1_pd(k4pi3), r), r), r);
   using v8u = std::uint64_t __attribute__((vector_size(64)));
   v8u keys;
   for (int l = 0; l < 8; ++l) keys[l] = pa.rotation_key(p + l);
   kernels::rotation_bank_slots(keys, g.seed);
   const __m256i slot = _mm512_cvtepi64_epi32(reinterpret_cast<__m512i&>(keys));
-  _mm256_storeu_si256(reinterpret_cast<__m256i*>(out.kind + k), kind);
-  _mm256_storeu_si256(reinterpret_cast<__m256i*>(out.two + k), counted_two);
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(out.path + k), path);
   _mm256_storeu_si256(reinterpret_cast<__m256i*>(out.cell + k), cell);
   _mm256_storeu_si256(reinterpret_cast<__m256i*>(out.slot + k), slot);
   for (int d = 0; d < 3; ++d) _mm256_storeu_ps(out.tau[d] + k, tau[d]);
@@ -175,12 +170,12 @@ __attribute__((target("arch=x86-64-v3"))) void plan_all_v3(const ParticleArrays&
 // the rotation slots' 64-bit products are one instruction each instead of AVX2's three
 // 32-bit ones and their shifts (docs/performance.md).
 __attribute__((target("arch=x86-64-v4"))) void plan_all_v4(const ParticleArrays& pa, std::int64_t first,
-                                                            std::int64_t count, const QuickGrid& g, QuickWindows* out) {
+                                                            std::int64_t count, const QuickGrid& g, QuickWindows& out) {
   if (!packed(pa)) return plan_block<false>(pa, first, count, g, out);
   std::int64_t k = 0;
-  for (; k + 8 <= count; k += 8) plan_eight_packed(pa, first + k, g, out[k / kQuickBlock], k % kQuickBlock);
-  for (; k + 4 <= count; k += 4) plan_four<true>(pa, first + k, 4, g, out[k / kQuickBlock], k % kQuickBlock);
-  if (k < count) plan_four<true>(pa, first + k, static_cast<int>(count - k), g, out[k / kQuickBlock], k % kQuickBlock);
+  for (; k + 8 <= count; k += 8) plan_eight_packed(pa, first + k, g, out, k);
+  for (; k + 4 <= count; k += 4) plan_four<true>(pa, first + k, 4, g, out, k);
+  if (k < count) plan_four<true>(pa, first + k, static_cast<int>(count - k), g, out, k);
 }
 bool has_v3() {
   static const bool yes = __builtin_cpu_supports("x86-64-v3");
@@ -195,7 +190,7 @@ bool has_v4() {
 }  // namespace
 
 void plan_sphere_windows(const ParticleArrays& pa, std::int64_t first, std::int64_t count, const QuickGrid& g,
-                         QuickWindows* out, [[maybe_unused]] PlanBuild build) {
+                         QuickWindows& out, [[maybe_unused]] PlanBuild build) {
 #ifdef VFE_PLAN_V3
   if (build == PlanBuild::fastest && has_v4()) return plan_all_v4(pa, first, count, g, out);
   if ((build == PlanBuild::fastest || build == PlanBuild::avx2) && has_v3())

@@ -22,27 +22,29 @@ struct QuickGrid {
   std::uint64_t seed;  ///< orientation=random's seed: the rotation bank's slots
 };
 
-/// The quick cases of up to kQuickBlock spheres, entry i for sphere first + i.
-inline constexpr std::int64_t kQuickBlock = 16;
+/// The quick cases of up to kQuickSpheres spheres, entry i for sphere first + i.
+inline constexpr std::int64_t kQuickSpheres = 256;
 struct QuickWindows {
-  enum Kind : std::int32_t { general, fast, count };
-  std::int32_t kind[kQuickBlock];
-  std::int32_t two[kQuickBlock];   ///< count: bit d set when the window has two cells along d; else 0
-  std::int32_t cell[kQuickBlock];  ///< fast or count: the window's first cell
-  std::int32_t slot[kQuickBlock];  ///< count: the rotation bank's slot of the sphere's rotation key
-  float tau[3][kQuickBlock];       ///< count: the thresholds per axis (PmmQuick's)
-  double volume[kQuickBlock];      ///< fast or count: the sphere's volume (sphere_volume's rounding)
+  /// A sphere's path: fast (its window is one cell), a set of split axes 1 to 7 (counted per
+  /// octant; bit d set when the window has two cells along d), or general. One number, so
+  /// finish_chunk sorts the spheres by it without a branch.
+  enum Path : std::int32_t { fast = 0, general = 8 };
+  std::int32_t path[kQuickSpheres];
+  std::int32_t cell[kQuickSpheres];  ///< fast or counted: the window's first cell
+  std::int32_t slot[kQuickSpheres];  ///< counted: the rotation bank's slot of the sphere's rotation key
+  float tau[3][kQuickSpheres];       ///< counted: the thresholds per axis (PmmQuick's)
+  double volume[kQuickSpheres];      ///< fast or counted: the sphere's volume (sphere_volume's rounding)
 };
 
 /// Which build runs: the fastest the CPU has, baseline x86-64, or AVX2 (x86-64-v3) where the
 /// CPU has it, else baseline (the tests compare them).
 enum class PlanBuild { fastest, baseline, avx2 };
 
-/// The quick cases of spheres [first, first + count) of pa, kQuickBlock to an entry of out
-/// (sphere first + i in out[i / kQuickBlock], entry i % kQuickBlock): PmmQuick's decisions,
-/// bit for bit, with each counted sphere's rotation slot (kernels::rotation_bank_slot of
-/// pa.rotation_key and g.seed) and each sphere's volume.
+/// The quick cases of spheres [first, first + count) of pa (count <= kQuickSpheres), sphere
+/// first + i in entry i of out: PmmQuick's decisions, bit for bit, with each counted
+/// sphere's rotation slot (kernels::rotation_bank_slot of pa.rotation_key and g.seed) and
+/// each sphere's volume.
 void plan_sphere_windows(const ParticleArrays& pa, std::int64_t first, std::int64_t count, const QuickGrid& g,
-                         QuickWindows* out, PlanBuild build = PlanBuild::fastest);
+                         QuickWindows& out, PlanBuild build = PlanBuild::fastest);
 
 }  // namespace vfe::detail

@@ -15,6 +15,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <memory>
 #include <numbers>
 #include <random>
 #include <vector>
@@ -48,11 +49,11 @@ QuickGrid make_grid() {
 
 /// The oracle: one sphere's decision by the rules above, in scalar double.
 struct Expected {
-  std::int32_t kind, two, cell;
+  std::int32_t path, cell;
   float tau[3];
 };
 Expected oracle(const QuickGrid& g, const double* c, double r) {
-  Expected e{QuickWindows::general, 0, 0, {0, 0, 0}};
+  Expected e{QuickWindows::general, 0, {0, 0, 0}};
   const double half = r * g.reach;
   std::int64_t lo[3], extra = 0, two = 0;
   for (int d = 0; d < 3; ++d) {
@@ -65,12 +66,11 @@ Expected oracle(const QuickGrid& g, const double* c, double r) {
   }
   e.cell = static_cast<std::int32_t>(lo[0] + g.nx * lo[1] + g.nxy * lo[2]);
   if (extra == 0) {
-    e.kind = QuickWindows::fast;
+    e.path = QuickWindows::fast;
     return e;
   }
   if (extra > 1 || !(r > g.min_radius) || !g.countable) return e;
-  e.kind = QuickWindows::count;
-  e.two = static_cast<std::int32_t>(two);
+  e.path = static_cast<std::int32_t>(two);  // counted: its split set, 1 to 7
   for (int d = 0; d < 3; ++d) {
     const double base = (c[d] - g.origin[d]) * g.inv_h[d] - double(lo[d]);
     e.tau[d] = static_cast<float>((1.0 - base) * g.h[d] * (1.0 / r));
@@ -139,27 +139,25 @@ void expect_oracle(const Spheres& s, PlanBuild build, std::int64_t block) {
   int fast = 0, count = 0, general = 0;
   for (std::int64_t first = 0; first < pa.n; first += block) {
     const std::int64_t m = std::min(block, pa.n - first);
-    std::vector<QuickWindows> blocks(static_cast<std::size_t>((m + detail::kQuickBlock - 1) / detail::kQuickBlock));
-    detail::plan_sphere_windows(pa, first, m, g, blocks.data(), build);
-    for (std::int64_t k = 0; k < m; ++k) {
-      const QuickWindows& w = blocks[static_cast<std::size_t>(k / detail::kQuickBlock)];
-      const std::int64_t i = k % detail::kQuickBlock;
+    auto w = std::make_unique<QuickWindows>();
+    detail::plan_sphere_windows(pa, first, m, g, *w, build);
+    for (std::int64_t i = 0; i < m; ++i) {
+      const std::int64_t k = i;
       const double* rec = s.records.data() + (first + k) * s.stride;
       const Expected e = oracle(g, rec, rec[3]);
-      ASSERT_EQ(w.kind[i], e.kind) << "sphere " << first + k;
-      fast += e.kind == QuickWindows::fast, count += e.kind == QuickWindows::count;
-      general += e.kind == QuickWindows::general;
-      // The split sets of the spheres it does not count are 0 (finish_chunk sorts by them).
-      ASSERT_EQ(w.two[i], e.two) << "sphere " << first + k;
-      if (e.kind == QuickWindows::general) continue;
-      ASSERT_EQ(w.cell[i], e.cell) << "sphere " << first + k;
+      ASSERT_EQ(w->path[i], e.path) << "sphere " << first + k;
+      const bool counted = e.path > QuickWindows::fast && e.path < QuickWindows::general;
+      fast += e.path == QuickWindows::fast, count += counted;
+      general += e.path == QuickWindows::general;
+      if (e.path == QuickWindows::general) continue;
+      ASSERT_EQ(w->cell[i], e.cell) << "sphere " << first + k;
       const double volume = 4.0 / 3.0 * std::numbers::pi * rec[3] * rec[3] * rec[3];
-      ASSERT_EQ(std::memcmp(&w.volume[i], &volume, sizeof volume), 0) << "sphere " << first + k;
-      if (e.kind != QuickWindows::count) continue;
+      ASSERT_EQ(std::memcmp(&w->volume[i], &volume, sizeof volume), 0) << "sphere " << first + k;
+      if (!counted) continue;
       const std::size_t slot = kernels::rotation_bank_slot(pa.rotation_key(first + k), g.seed);
-      ASSERT_EQ(w.slot[i], static_cast<std::int32_t>(slot)) << "sphere " << first + k;
+      ASSERT_EQ(w->slot[i], static_cast<std::int32_t>(slot)) << "sphere " << first + k;
       for (int d = 0; d < 3; ++d) {
-        float got = w.tau[d][i];
+        float got = w->tau[d][i];
         ASSERT_EQ(std::memcmp(&got, &e.tau[d], sizeof got), 0) << "sphere " << first + k << " axis " << d;
       }
     }
@@ -175,7 +173,7 @@ TEST(PmmPlan, BothBuildsGiveTheOneSphereDecisionsBitForBit) {
     for (const bool ids : {false, true})
       for (const PlanBuild build : {PlanBuild::fastest, PlanBuild::baseline, PlanBuild::avx2})
         for (const std::int64_t block : {std::int64_t(1), std::int64_t(3), std::int64_t(4), std::int64_t(7),
-                                         detail::kQuickBlock, std::int64_t(37), std::int64_t(256)}) {
+                                         std::int64_t(16), std::int64_t(37), detail::kQuickSpheres}) {
           SCOPED_TRACE((stride ? "stride " + std::to_string(stride) : std::string("packed")) + (ids ? " ids" : "") +
                        (build == PlanBuild::fastest    ? " fastest"
                         : build == PlanBuild::baseline ? " baseline"
@@ -194,13 +192,13 @@ TEST(PmmPlan, ATemplateThatCannotBeCountedIsNeverCounted) {
   const Spheres s = test_spheres(4);
   const ParticleArrays pa = s.arrays();
   int fast = 0;
-  for (std::int64_t first = 0; first < pa.n; first += detail::kQuickBlock) {
-    QuickWindows w;
-    const std::int64_t m = std::min(detail::kQuickBlock, pa.n - first);
-    detail::plan_sphere_windows(pa, first, m, g, &w);
+  auto w = std::make_unique<QuickWindows>();
+  for (std::int64_t first = 0; first < pa.n; first += detail::kQuickSpheres) {
+    const std::int64_t m = std::min(detail::kQuickSpheres, pa.n - first);
+    detail::plan_sphere_windows(pa, first, m, g, *w);
     for (std::int64_t i = 0; i < m; ++i) {
-      ASSERT_NE(w.kind[i], QuickWindows::count);
-      fast += w.kind[i] == QuickWindows::fast;
+      ASSERT_TRUE(w->path[i] == QuickWindows::fast || w->path[i] == QuickWindows::general);
+      fast += w->path[i] == QuickWindows::fast;
     }
   }
   EXPECT_GT(fast, 100);

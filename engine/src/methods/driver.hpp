@@ -23,6 +23,7 @@
 #include <limits>
 #include <span>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace vfe::kernels {
@@ -454,82 +455,92 @@ class PmmQuick {
   }
 
   /// The most spheres finish_chunk takes.
-  static constexpr std::int64_t kChunk = 256;
+  static constexpr std::int64_t kChunk = kQuickSpheres;
 
   /// operator() for spheres [0, n) of a chunk (n <= kChunk) planned by plan_sphere_windows
-  /// on window_grid() (block b of windows for spheres [16 b, 16 b + 16)), the counts grouped
-  /// by split axes: in a shuffled stream the counting code and the number of adds change at
-  /// random from one sphere to the next, which the CPU mispredicts; one set of split axes
-  /// after another, they repeat, and one call counts a whole set. Only the order of the adds
-  /// changes. The plan gives each sphere's volume and rotation slot. taken(k, fast) for each
-  /// sphere added (fast: by the fast path), declined(k) for each of the others.
+  /// on window_grid(), one path after another: in a shuffled stream the path (fast, the set
+  /// of split axes of a count, general) changes at random from one sphere to the next, which
+  /// the CPU mispredicts; sorted by path, each path is a loop of its own (one counting call
+  /// and one unrolled code of adds per set of split axes). Only the order of the adds
+  /// changes. sink adds into a field: sink(cell, volume), and sink.prefetch(cell) asks for
+  /// the line of a later add; a counted sphere adds to every octant its split axes reach,
+  /// zeros included (EmptyOctants::add_zero). taken(k, fast) for each sphere added (fast: by
+  /// the fast path), declined(k) for each of the others.
   template <class Sink, class Taken, class Declined>
-  void finish_chunk(Tally& tally, const QuickWindows* windows, std::int64_t n, Sink&& sink, Taken&& taken,
-                    Declined&& declined, EmptyOctants empty = EmptyOctants::skip) const {
-    constexpr std::int64_t kBlock = kQuickBlock;
-    // Spheres per split set (the plan's two is 0 for a sphere it does not count), then each
-    // set's first slot. A block's counts as the bytes of one register, set s in byte s (16
-    // spheres cannot overflow one): a counter in memory per sphere would chain its
-    // increments through the store.
-    std::int32_t per_set[8] = {};
-    for (std::int64_t b = 0; b * kBlock < n; ++b) {
-      const std::int64_t m = std::min(kBlock, n - b * kBlock);
-      std::uint64_t bytes = 0;
-      for (std::int64_t i = 0; i < m; ++i) bytes += std::uint64_t(1) << (8 * windows[b].two[i]);
-      for (int split = 1; split < 8; ++split) per_set[split] += static_cast<std::int32_t>((bytes >> (8 * split)) & 0xFF);
+  void finish_chunk(Tally& tally, const QuickWindows& w, std::int64_t n, Sink&& sink, Taken&& taken,
+                    Declined&& declined) const {
+    static_assert(kChunk <= 256, "a sphere of the chunk is a byte of order");
+    const auto add = sink;  // a copy in registers: an add's store could otherwise alias it
+    // The spheres by path, without a branch; the line of each one's first cell asked for.
+    std::uint8_t order[QuickWindows::general + 1][kChunk];
+    std::int32_t size[QuickWindows::general + 1] = {};
+    for (std::int64_t i = 0; i < n; ++i) {
+      const std::int32_t path = w.path[i];
+      add.prefetch(w.cell[i]);  // in the grid for every path
+      order[path][size[path]++] = static_cast<std::uint8_t>(i);
     }
-    std::int64_t first[9];
-    first[0] = first[1] = 0;  // set 0 holds no count
-    for (int split = 1; split < 8; ++split) first[split + 1] = first[split] + per_set[split];
-    std::int64_t next[8];
-    std::copy(first, first + 8, next);
-    // One pass: the fast path's adds, the declined spheres, and each counted sphere's query,
-    // cell and volume in its set's slots.
-    std::uint16_t sphere[kChunk];
-    std::int32_t cell[kChunk];
-    double volume[kChunk];
-    kernels::OctantQuery query[kChunk];
-    for (std::int64_t b = 0; b * kBlock < n; ++b) {
-      const QuickWindows& w = windows[b];
-      const std::int64_t m = std::min(kBlock, n - b * kBlock);
-      for (std::int64_t i = 0; i < m; ++i) {
-        const std::int64_t k = b * kBlock + i;
-        if (w.kind[i] == QuickWindows::count) {
-          const std::int64_t slot = next[w.two[i]]++;
-          sphere[slot] = static_cast<std::uint16_t>(k);
-          cell[slot] = w.cell[i];
-          volume[slot] = w.volume[i];
-          query[slot] = {query_base_ + query_stride_ * w.slot[i], {w.tau[0][i], w.tau[1][i], w.tau[2][i]}};
-        } else if (w.kind[i] == QuickWindows::fast) {
-          ++tally.fast;
-          sink(w.cell[i], w.volume[i]);
-          taken(k, true);
-        } else {
-          declined(k);
-        }
-      }
+    for (std::int32_t j = 0; j < size[QuickWindows::fast]; ++j) {
+      const std::int64_t i = order[QuickWindows::fast][j];
+      add(w.cell[i], w.volume[i]);
+      taken(i, true);
     }
-    std::int32_t counts[8 * kChunk];
-    std::uint8_t decided[kChunk];
-    const double fraction = single_->fractions[0];
-    for (unsigned split = 1; split < 8; ++split) {  // a count has a split axis: set 0 holds no count
-      const std::int64_t begin = first[split], end = first[split + 1];
-      if (begin == end) continue;
-      (projected_ ? counter_->projected_batch_by_split : counter_->batch_by_split)[split](
-          *single_, query + begin, static_cast<std::size_t>(end - begin), counts + 8 * begin, decided + begin);
-      for (std::int64_t slot = begin; slot < end; ++slot) {
-        if (!decided[slot]) {
-          declined(sphere[slot]);
-          continue;
-        }
-        ++tally.counted;
-        add_octants(counts + 8 * slot, split, cell[slot], volume[slot] * fraction, sink, empty);
-        taken(sphere[slot], false);
-      }
-    }
+    tally.fast += size[QuickWindows::fast];
+    // One set of buffers for every set of split axes (seven would not stay in L1).
+    SetBuffers buffers;
+    [&]<unsigned... kSet>(std::integer_sequence<unsigned, kSet...>) {
+      (finish_set<kSet + 1>(tally, w, order[kSet + 1], size[kSet + 1], buffers, add, taken, declined), ...);
+    }(std::make_integer_sequence<unsigned, 7>{});
+    for (std::int32_t j = 0; j < size[QuickWindows::general]; ++j) declined(order[QuickWindows::general][j]);
   }
 
  private:
+  /// A set's queries and results in finish_chunk.
+  struct SetBuffers {
+    kernels::OctantQuery query[kChunk];
+    std::int32_t counts[8 * kChunk];
+    std::uint8_t decided[kChunk];
+  };
+
+  /// finish_chunk's counted spheres of split set kSplit: spheres order[0, m) of w.
+  template <unsigned kSplit, class Sink, class Taken, class Declined>
+  [[gnu::always_inline]] void finish_set(Tally& tally, const QuickWindows& w, const std::uint8_t* order,
+                                         std::int32_t m, SetBuffers& b, const Sink& add, Taken&& taken,
+                                         Declined&& declined) const {
+    if (m == 0) return;
+    for (std::int32_t j = 0; j < m; ++j) {
+      const std::int64_t i = order[j];
+      b.query[j] = {query_base_ + query_stride_ * w.slot[i], {w.tau[0][i], w.tau[1][i], w.tau[2][i]}};
+      // The lines of the octants across y and z, while the count runs (finish_chunk asked
+      // for the first cell's).
+#pragma GCC unroll 4
+      for (unsigned o = 2; o < 8; o += 2)
+        if ((o & ~kSplit) == 0) add.prefetch(w.cell[i] + corner_offset_[o]);
+    }
+    const std::int32_t* const counts = b.counts;
+    const std::uint8_t* const decided = b.decided;
+    (projected_ ? counter_->projected_batch_by_split : counter_->batch_by_split)[kSplit](
+        *single_, b.query, static_cast<std::size_t>(m), b.counts, b.decided);
+    const double fraction = single_->fractions[0];
+    // The octants' offsets in registers: an add's store could otherwise alias them.
+    std::int64_t offset[8];
+    std::copy(corner_offset_, corner_offset_ + 8, offset);
+    for (std::int32_t j = 0; j < m; ++j) {
+      const std::int64_t i = order[j];
+      if (!decided[j]) {
+        declined(i);
+        continue;
+      }
+      ++tally.counted;
+      const std::int32_t* c = counts + 8 * j;
+      const std::int64_t cell = w.cell[i];
+      const double share = w.volume[i] * fraction;
+#pragma GCC unroll 8
+      for (unsigned o = 0; o < 8; ++o)
+        if ((o & ~kSplit) == 0) add(cell + offset[o], share * double(c[o]));
+      taken(i, false);
+    }
+  }
+
   /// A count's adds: share per sub-element into each octant the split axes reach.
   template <class Sink>
   [[gnu::always_inline]] void add_octants(const std::int32_t counts[8], unsigned two, std::int64_t cell,

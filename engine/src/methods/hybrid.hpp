@@ -79,7 +79,7 @@ inline double pmm_counted_cost(const kernels::ParticleTemplate& t) {
 /// Whether counting pmm's sub-elements of template t per octant costs less than exact on
 /// any window the count could take instead (two cells or more; a window of more than two
 /// cells per axis costs exact more still): auto_sphere_quick then leaves every sphere to
-/// pmm's quick case, and a pass may run pmm's quick cases by blocks (PmmQuick::finish_chunk)
+/// pmm's quick case, and a pass may run pmm's quick cases by chunks (PmmQuick::finish_chunk)
 /// and count each sphere they take with auto_count_quick.
 inline bool auto_counts_every_window(const kernels::ParticleTemplate& t) {
   const GridCosts& m = cartesian_costs();
