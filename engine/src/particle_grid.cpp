@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstring>
 
 namespace vfe::detail {
 
@@ -26,6 +27,33 @@ std::int64_t auto_step(double diameter, double cell_volume, const AutoRule& rule
   if (k <= kLadderLinear) return k;
   return kLadderLinear +
          static_cast<std::int64_t>(std::ceil(std::log(double(k) / kLadderLinear) / std::log(kLadderGrowth) - 1e-9));
+}
+
+std::vector<double> auto_step_thresholds(double d_min, double d_max, double cell_volume, const AutoRule& rule,
+                                         std::int64_t first_step, std::int64_t last_step) {
+  std::vector<double> thresholds;
+  double lo = d_min;  // auto_step(lo) is below the step sought
+  for (std::int64_t step = first_step + 1; step <= last_step; ++step) {
+    if (auto_step(lo, cell_volume, rule) >= step) {  // the step rose by more than one at lo
+      thresholds.push_back(lo);
+      continue;
+    }
+    double hi = d_max;  // auto_step(hi) reaches it
+    // Halving the interval until lo and hi are neighbouring doubles: at most about 64 steps
+    // for positive doubles (the midpoint of the bit patterns halves the doubles between).
+    while (std::nextafter(lo, hi) < hi) {
+      std::uint64_t a, b;
+      std::memcpy(&a, &lo, sizeof a);
+      std::memcpy(&b, &hi, sizeof b);
+      const std::uint64_t m = a + (b - a) / 2;
+      double mid;
+      std::memcpy(&mid, &m, sizeof mid);
+      (auto_step(mid, cell_volume, rule) >= step ? hi : lo) = mid;
+    }
+    thresholds.push_back(hi);
+    lo = hi;  // the next step's threshold lies beyond
+  }
+  return thresholds;
 }
 
 AutoRule TemplateCache::auto_rule(const Options& opts, double cell_size) {
@@ -67,6 +95,11 @@ TemplateBank TemplateCache::prepare(const Options& opts, double d_min, double d_
     bank.first_step = auto_step(d_min, v_max, bank.rule);
     const std::int64_t last = auto_step(d_max, v_min, bank.rule);
     for (std::int64_t k = bank.first_step; k <= last; ++k) bank_.push_back(&get(opts, auto_particle_count(k, bank.rule)));
+    if (v_min == v_max && last > bank.first_step && d_min > 0) {
+      thresholds_ = auto_step_thresholds(d_min, d_max, v_min, bank.rule, bank.first_step, last);
+      bank.threshold_cell_volume = v_min;
+      bank.thresholds = thresholds_;
+    }
   }
   bank.templates = bank_;
   // One template counted with the bank's rotations: its points on their rows, once per engine.

@@ -58,10 +58,21 @@ struct TemplateBank {
   /// The one template's projections on the rotation bank, where pmm counts with them
   /// (orientation=random from the bank, at most 64 points); else null.
   const kernels::BankProjections* projections = nullptr;
+  /// Where every cell has one volume (a Cartesian grid) and the bank several templates:
+  /// that volume, and the diameters at which the auto step rises, templates[k] taking the
+  /// diameters from thresholds[k - 1] on. A sphere then finds its template by comparisons
+  /// instead of a cube root and a square root (polydisperse spheres rarely repeat a size).
+  double threshold_cell_volume = 0;
+  std::span<const double> thresholds;
 
   /// The template of a sphere of this diameter in a cell of this volume.
   const kernels::ParticleTemplate& template_for(double diameter, double cell_volume) const {
     if (templates.size() == 1) return *templates.front();
+    if (cell_volume == threshold_cell_volume && !thresholds.empty()) {
+      std::size_t k = 0;
+      for (const double t : thresholds) k += diameter >= t;
+      return *templates[k];
+    }
     const std::int64_t k = auto_step(diameter, cell_volume, rule) - first_step;
     const auto last = static_cast<std::int64_t>(templates.size()) - 1;
     return *templates[static_cast<std::size_t>(k < 0 ? 0 : (k > last ? last : k))];
@@ -69,7 +80,8 @@ struct TemplateBank {
   /// The same, remembered in the calling thread's memo for the next sphere of the same
   /// size in a cell of the same volume.
   const kernels::ParticleTemplate& template_for(double diameter, double cell_volume, TemplateMemo& memo) const {
-    if (templates.size() == 1) return *templates.front();
+    if (templates.size() == 1 || (cell_volume == threshold_cell_volume && !thresholds.empty()))
+      return template_for(diameter, cell_volume);
     if (memo.bank != id) {
       memo = TemplateMemo{};
       memo.bank = id;
@@ -115,6 +127,13 @@ class TemplateCache {
   kernels::BankProjections projections_;                  ///< its projections (2 to 3 MB)
   std::int64_t spheres_served_ = 0;  ///< spheres of every compute prepared so far
   std::vector<const kernels::ParticleTemplate*> bank_;
+  std::vector<double> thresholds_;  ///< the bank's TemplateBank::thresholds
 };
+
+/// The diameters in (d_min, d_max] at which auto_step(d, cell_volume, rule) rises from
+/// first_step to first_step + 1, + 2, ..., last_step: each the smallest double at which the
+/// step reaches its value, found by bisection on auto_step itself (which rises with d).
+std::vector<double> auto_step_thresholds(double d_min, double d_max, double cell_volume, const AutoRule& rule,
+                                         std::int64_t first_step, std::int64_t last_step);
 
 }  // namespace vfe::detail

@@ -11,7 +11,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <numbers>
 #include <random>
 #include <span>
@@ -44,6 +46,42 @@ TEST(TemplateMemo, GivesTheAutoRulesTemplate) {
     EXPECT_EQ(memo.bank, bank.id);
   }
   EXPECT_GT(changed, 1000);  // the sizes alternate: both entries and their replacement served
+}
+
+// Where every cell has one volume, a bank of several templates gives a sphere its template by
+// comparing its diameter with the diameters at which the auto step rises: for random
+// diameters, each threshold and its neighbouring doubles, the template is the one the auto
+// rule gives (auto_step); a sphere in a cell of another volume still gets the rule's.
+TEST(TemplateBank, ThresholdsGiveTheAutoRulesTemplate) {
+  Options opts;
+  TemplateCache cache;
+  const double d_min = 0.0005, d_max = 0.0015, v = 8e-9;
+  const TemplateBank bank = cache.prepare(opts, d_min, d_max, v, v);
+  ASSERT_GT(bank.templates.size(), 3u);
+  ASSERT_EQ(bank.thresholds.size(), bank.templates.size() - 1);
+  EXPECT_EQ(bank.threshold_cell_volume, v);
+  auto rules = [&](double d, double volume) -> const kernels::ParticleTemplate& {
+    const std::int64_t k = auto_step(d, volume, bank.rule) - bank.first_step;
+    const auto last = static_cast<std::int64_t>(bank.templates.size()) - 1;
+    return *bank.templates[static_cast<std::size_t>(std::clamp<std::int64_t>(k, 0, last))];
+  };
+  std::vector<double> diameters = {d_min, d_max};
+  for (std::size_t k = 0; k < bank.thresholds.size(); ++k) {
+    const double t = bank.thresholds[k];
+    if (k > 0) EXPECT_GT(t, bank.thresholds[k - 1]);
+    diameters.insert(diameters.end(), {t, std::nextafter(t, 0.0), std::nextafter(t, 1.0)});
+  }
+  std::mt19937_64 rng(6);
+  std::uniform_real_distribution<double> u(d_min, d_max);
+  for (int i = 0; i < 100000; ++i) diameters.push_back(u(rng));
+  TemplateMemo memo;
+  for (const double d : diameters) {
+    ASSERT_EQ(&bank.template_for(d, v), &rules(d, v)) << "d " << d;
+    ASSERT_EQ(&bank.template_for(d, v, memo), &rules(d, v)) << "d " << d;
+    ASSERT_EQ(&bank.template_for(d, 2 * v), &rules(d, 2 * v)) << "d " << d;  // no thresholds for this volume
+  }
+  // Cells of several volumes: no thresholds.
+  EXPECT_TRUE(cache.prepare(opts, d_min, d_max, v / 2, v).thresholds.empty());
 }
 
 // The ball's box of cells that method=auto's model locates once on a graded grid, and exact
