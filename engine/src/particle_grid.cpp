@@ -29,9 +29,9 @@ std::int64_t auto_step(double diameter, double cell_volume, const AutoRule& rule
          static_cast<std::int64_t>(std::ceil(std::log(double(k) / kLadderLinear) / std::log(kLadderGrowth) - 1e-9));
 }
 
-std::vector<double> auto_step_thresholds(double d_min, double d_max, double cell_volume, const AutoRule& rule,
-                                         std::int64_t first_step, std::int64_t last_step) {
-  std::vector<double> thresholds;
+void auto_step_thresholds(double d_min, double d_max, double cell_volume, const AutoRule& rule,
+                          std::int64_t first_step, std::int64_t last_step, std::vector<double>& thresholds) {
+  thresholds.clear();
   double lo = d_min;  // auto_step(lo) is below the step sought
   for (std::int64_t step = first_step + 1; step <= last_step; ++step) {
     if (auto_step(lo, cell_volume, rule) >= step) {  // the step rose by more than one at lo
@@ -53,7 +53,6 @@ std::vector<double> auto_step_thresholds(double d_min, double d_max, double cell
     thresholds.push_back(hi);
     lo = hi;  // the next step's threshold lies beyond
   }
-  return thresholds;
 }
 
 AutoRule TemplateCache::auto_rule(const Options& opts, double cell_size) {
@@ -96,7 +95,7 @@ TemplateBank TemplateCache::prepare(const Options& opts, double d_min, double d_
     const std::int64_t last = auto_step(d_max, v_min, bank.rule);
     for (std::int64_t k = bank.first_step; k <= last; ++k) bank_.push_back(&get(opts, auto_particle_count(k, bank.rule)));
     if (v_min == v_max && last > bank.first_step && d_min > 0) {
-      thresholds_ = auto_step_thresholds(d_min, d_max, v_min, bank.rule, bank.first_step, last);
+      auto_step_thresholds(d_min, d_max, v_min, bank.rule, bank.first_step, last, thresholds_);
       bank.threshold_cell_volume = v_min;
       bank.thresholds = thresholds_;
     }

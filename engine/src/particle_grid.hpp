@@ -133,7 +133,8 @@ class TemplateCache {
 /// The diameters in (d_min, d_max] at which auto_step(d, cell_volume, rule) rises from
 /// first_step to first_step + 1, + 2, ..., last_step: each the smallest double at which the
 /// step reaches its value, found by bisection on auto_step itself (which rises with d).
-std::vector<double> auto_step_thresholds(double d_min, double d_max, double cell_volume, const AutoRule& rule,
-                                         std::int64_t first_step, std::int64_t last_step);
+/// Into thresholds, whose memory is kept: a steady run of computes allocates nothing.
+void auto_step_thresholds(double d_min, double d_max, double cell_volume, const AutoRule& rule,
+                          std::int64_t first_step, std::int64_t last_step, std::vector<double>& thresholds);
 
 }  // namespace vfe::detail
