@@ -505,7 +505,9 @@ struct Engine::Impl {
     const bool hybrid = opts.method == Method::automatic;
     // method=auto takes the blocks where it leaves every sphere to pmm's quick case.
     const detail::QuickGrid* blocks = quick.window_grid();
-    if (blocks && hybrid && !detail::auto_counts_every_window(*quick.single_template())) blocks = nullptr;
+    if (blocks && hybrid)
+      for (const kernels::ParticleTemplate* t : quick.chunk_templates())
+        if (!detail::auto_counts_every_window(*t)) blocks = nullptr;
     projected_counts = blocks && quick.counts_from_projections();
     private_field_pass(pa, pl, [&](Scratch& s, auto&& add, const tbb::blocked_range<std::int64_t>& r) {
       // One particle record for the range, its per-particle fields set in the loop
@@ -530,7 +532,8 @@ struct Engine::Impl {
           detail::PmmQuick::Tally tally;
           auto finish = [&](auto&& taken) {
             quick.finish_chunk(
-                tally, planned, n, add, taken, [&](std::int64_t k) { general(chunk + k); });
+                tally, planned, n, add, [&](std::int64_t k) { return pa.radius(chunk + k); }, taken,
+                [&](std::int64_t k) { general(chunk + k); });
           };
           if (hybrid) {  // method=auto counts its paths, in registers, into the Scratch once a chunk
             std::int64_t auto_fast = 0, auto_pmm = 0;

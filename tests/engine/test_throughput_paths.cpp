@@ -61,6 +61,7 @@ TEST(PmmCounting, EveryCellEqualsLocatingEverySubElement) {
   // compared one by one, more in groups).
   for (const double r : {0.125, 0.25, 1.0 / 3.0, 0.5})
     cases.push_back({"random", random_spheres(11, 3000, 1.0, 9.0, r, r), ""});
+  // Several templates: each sphere's from the bank's diameter thresholds.
   cases.push_back({"polydisperse", random_spheres(12, 3000, 1.0, 9.0, 0.15, 0.5), ""});
   cases.push_back({"near faces", near_face_spheres(1.0, 10, 0.25, 3000), " orientation=none particle_grid=45"});
   cases.push_back({"near faces chi 1", near_face_spheres(1.0, 10, 0.5, 3000), " orientation=none particle_grid=45"});
@@ -88,6 +89,10 @@ TEST(PmmCounting, EveryCellEqualsLocatingEverySubElement) {
     else
       EXPECT_GT(counting.last_report_value("counted_particles"), 0.3 * double(c.p.radii.size()));
     EXPECT_EQ(locating.last_report_value("counted_particles"), 0.0);
+    // The templates the spheres took (several for the polydisperse scene: one counting
+    // call per split set and template).
+    EXPECT_EQ(counting.last_report().particle_grid_min, locating.last_report().particle_grid_min);
+    EXPECT_EQ(counting.last_report().particle_grid_max, locating.last_report().particle_grid_max);
     EXPECT_NEAR(total(a), c.p.volume(), 1e-12 * c.p.volume());
     EXPECT_EQ(counting.last_report().outside_particles, locating.last_report().outside_particles);
   }

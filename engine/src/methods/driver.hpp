@@ -339,16 +339,35 @@ class PmmQuick {
     grid_.min_radius = 1e-6 * h_max;
     nx_ = grid.cells()[0], nxy_ = nx_ * grid.cells()[1];
     for (unsigned o = 0; o < 8; ++o) corner_offset_[o] = (o & 1) + nx_ * ((o >> 1) & 1) + nxy_ * ((o >> 2) & 1);
-    window_grid_ = usable_ && from_origin_ && single_ && bank_rows_ && grid.cell_count() < (std::int64_t(1) << 31) &&
-                   first_[0] == 0 && first_[1] == 0 && first_[2] == 0;
+    // Several templates: each sphere's by the bank's diameter thresholds (spheres of one
+    // cell volume), each countable.
+    const TemplateBank& bank = ctx.bank;
+    const bool several = !single_ && bank.templates.size() <= kMostChunkTemplates && !bank.thresholds.empty() &&
+                         bank.threshold_cell_volume == grid.cell_volume() &&
+                         std::all_of(bank.templates.begin(), bank.templates.end(),
+                                     [](const kernels::ParticleTemplate* t) { return !t->split_points.empty(); });
+    window_grid_ = usable_ && from_origin_ && (single_ || several) && bank_rows_ &&
+                   grid.cell_count() < (std::int64_t(1) << 31) && first_[0] == 0 && first_[1] == 0 && first_[2] == 0;
     if (single_) {
-      single_size_ = static_cast<std::int64_t>(single_->size());
       grid_.reach = single_->reach;
       grid_.countable = !single_->split_points.empty();
     }
+    if (window_grid_) {
+      chunk_templates_ = bank.templates.size();
+      if (several) thresholds_ = bank.thresholds;
+      grid_.reach = 0;
+      for (std::size_t k = 0; k < chunk_templates_; ++k) {
+        templates_[k] = bank.templates[k];
+        counters_[k] = &kernels::octant_counter(*templates_[k]);
+        // The planning's windows hold every template of the bank: a sphere whose own
+        // template lies in one cell may be counted, its points all in one octant.
+        grid_.reach = std::max(grid_.reach, templates_[k]->reach);
+      }
+      grid_.countable = single_ ? !single_->split_points.empty() : true;
+    }
     // A counted sphere's query: its bank slot's projections where the bank has them for the
     // template, else its slot's float rows.
-    projected_ = window_grid_ && ctx.bank.projections && counter_->projected_batch_by_split[1];
+    projected_ = window_grid_ && single_ && ctx.bank.projections && counter_->projected_batch_by_split[1];
     if (projected_) {
       query_base_ = ctx.bank.projections->of_slot(0);
       query_stride_ = static_cast<std::int64_t>(ctx.bank.projections->of_slot(1) - query_base_);
@@ -431,28 +450,35 @@ class PmmQuick {
     return true;
   }
 
-  /// The bank's one template, or null.
-  const kernels::ParticleTemplate* single_template() const { return single_; }
+  /// The templates finish_chunk counts with (window_grid()): the bank's.
+  std::span<const kernels::ParticleTemplate* const> chunk_templates() const {
+    return {templates_, chunk_templates_};
+  }
   /// Whether finish_chunk counts from the template's projections on the rotation bank.
   bool counts_from_projections() const { return projected_; }
 
   /// plan_sphere_windows' grid for this context, or null where the quick cases need more than
-  /// it decides (a block, periodic axes, several templates, rotations not from the bank,
-  /// 2^31 cells or more along an axis).
+  /// it decides (a block, periodic axes, several templates without the bank's diameter
+  /// thresholds or more than kMostChunkTemplates of them, rotations not from the bank, 2^31
+  /// cells or more along an axis).
   const QuickGrid* window_grid() const { return window_grid_ ? &grid_ : nullptr; }
 
   /// What finish_chunk took, tallied over a chunk and added to the Scratch's counters once
   /// (commit): counters in memory cost a load and a store per particle around every call.
   struct Tally {
-    std::int64_t fast = 0, counted = 0;
+    std::int64_t fast = 0, counted = 0, sub_elements = 0;
+    std::uint64_t templates = 0;  ///< bit k: template k of the bank served a sphere
   };
   void commit(Scratch& s, const Tally& t) const {
-    if (t.fast + t.counted == 0) return;
-    s.count_grid(single_size_);
+    for (std::size_t k = 0; k < chunk_templates_; ++k)
+      if ((t.templates >> k) & 1u) s.count_grid(static_cast<std::int64_t>(templates_[k]->size()));
     s.fast_path += t.fast;
     s.counted += t.counted;
-    s.sub_elements += t.counted * single_size_;
+    s.sub_elements += t.sub_elements;
   }
+
+  /// The most templates a bank may have for finish_chunk (a bit each in Tally::templates).
+  static constexpr std::size_t kMostChunkTemplates = 64;
 
   /// The most spheres finish_chunk takes.
   static constexpr std::int64_t kChunk = kQuickSpheres;
@@ -464,13 +490,23 @@ class PmmQuick {
   /// and one unrolled code of adds per set of split axes). Only the order of the adds
   /// changes. sink adds into a field: sink(cell, volume), and sink.prefetch(cell) asks for
   /// the line of a later add; a counted sphere adds to every octant its split axes reach,
-  /// zeros included (EmptyOctants::add_zero). taken(k, fast) for each sphere added (fast: by
-  /// the fast path), declined(k) for each of the others.
-  template <class Sink, class Taken, class Declined>
-  void finish_chunk(Tally& tally, const QuickWindows& w, std::int64_t n, Sink&& sink, Taken&& taken,
-                    Declined&& declined) const {
+  /// zeros included (EmptyOctants::add_zero). With several templates, radius(k) gives sphere
+  /// k's radius (its template's by the bank's thresholds), and each split set is counted one
+  /// template after another. taken(k, fast) for each sphere added (fast: by the fast path),
+  /// declined(k) for each of the others.
+  template <class Sink, class Radius, class Taken, class Declined>
+  void finish_chunk(Tally& tally, const QuickWindows& w, std::int64_t n, Sink&& sink, Radius&& radius,
+                    Taken&& taken, Declined&& declined) const {
     static_assert(kChunk <= 256, "a sphere of the chunk is a byte of order");
     const auto add = sink;  // a copy in registers: an add's store could otherwise alias it
+    std::uint8_t templ[kChunk];  // each sphere's template in the bank (several templates)
+    if (!thresholds_.empty())
+      for (std::int64_t i = 0; i < n; ++i) {
+        const double d = 2 * radius(i);  // template_for's diameter
+        std::uint8_t k = 0;
+        for (const double t : thresholds_) k += d >= t;
+        templ[i] = k;
+      }
     // The spheres by path, without a branch; the line of each one's first cell asked for.
     std::uint8_t order[QuickWindows::general + 1][kChunk];
     std::int32_t size[QuickWindows::general + 1] = {};
@@ -479,16 +515,41 @@ class PmmQuick {
       add.prefetch(w.cell[i]);  // in the grid for every path
       order[path][size[path]++] = static_cast<std::uint8_t>(i);
     }
+    std::uint64_t used = 0;
     for (std::int32_t j = 0; j < size[QuickWindows::fast]; ++j) {
       const std::int64_t i = order[QuickWindows::fast][j];
       add(w.cell[i], w.volume[i]);
+      if (!thresholds_.empty()) used |= std::uint64_t(1) << templ[i];
       taken(i, true);
     }
+    if (size[QuickWindows::fast] > 0 && thresholds_.empty()) used |= 1;
+    tally.templates |= used;
     tally.fast += size[QuickWindows::fast];
     // One set of buffers for every set of split axes (seven would not stay in L1).
     SetBuffers buffers;
+    auto finish = [&]<unsigned kSplit>(std::integral_constant<unsigned, kSplit>) {
+      const std::uint8_t* set = order[kSplit];
+      const std::int32_t m = size[kSplit];
+      if (m == 0) return;
+      if (thresholds_.empty()) {
+        finish_set<kSplit>(tally, w, 0, set, m, buffers, add, taken, declined);
+        return;
+      }
+      // The set's spheres by template (a counting sort), then one template after another.
+      std::int32_t first[kMostChunkTemplates + 1] = {};
+      for (std::int32_t j = 0; j < m; ++j) ++first[templ[set[j]] + 1];
+      for (std::size_t k = 0; k < chunk_templates_; ++k) first[k + 1] += first[k];
+      std::int32_t next[kMostChunkTemplates];
+      std::copy(first, first + chunk_templates_, next);
+      std::uint8_t by_template[kChunk];
+      for (std::int32_t j = 0; j < m; ++j) by_template[next[templ[set[j]]]++] = set[j];
+      for (std::size_t k = 0; k < chunk_templates_; ++k)
+        if (first[k + 1] > first[k])
+          finish_set<kSplit>(tally, w, k, by_template + first[k], first[k + 1] - first[k], buffers, add, taken,
+                             declined);
+    };
     [&]<unsigned... kSet>(std::integer_sequence<unsigned, kSet...>) {
-      (finish_set<kSet + 1>(tally, w, order[kSet + 1], size[kSet + 1], buffers, add, taken, declined), ...);
+      (finish(std::integral_constant<unsigned, kSet + 1>{}), ...);
     }(std::make_integer_sequence<unsigned, 7>{});
     for (std::int32_t j = 0; j < size[QuickWindows::general]; ++j) declined(order[QuickWindows::general][j]);
   }
@@ -501,12 +562,14 @@ class PmmQuick {
     std::uint8_t decided[kChunk];
   };
 
-  /// finish_chunk's counted spheres of split set kSplit: spheres order[0, m) of w.
+  /// finish_chunk's counted spheres of split set kSplit and template `templ` of the bank:
+  /// spheres order[0, m) of w.
   template <unsigned kSplit, class Sink, class Taken, class Declined>
-  [[gnu::always_inline]] void finish_set(Tally& tally, const QuickWindows& w, const std::uint8_t* order,
-                                         std::int32_t m, SetBuffers& b, const Sink& add, Taken&& taken,
-                                         Declined&& declined) const {
-    if (m == 0) return;
+  [[gnu::always_inline]] void finish_set(Tally& tally, const QuickWindows& w, std::size_t templ,
+                                         const std::uint8_t* order, std::int32_t m, SetBuffers& b, const Sink& add,
+                                         Taken&& taken, Declined&& declined) const {
+    const kernels::ParticleTemplate& t = *templates_[templ];
+    const kernels::OctantCounter& counter = *counters_[templ];
     for (std::int32_t j = 0; j < m; ++j) {
       const std::int64_t i = order[j];
       b.query[j] = {query_base_ + query_stride_ * w.slot[i], {w.tau[0][i], w.tau[1][i], w.tau[2][i]}};
@@ -518,9 +581,10 @@ class PmmQuick {
     }
     const std::int32_t* const counts = b.counts;
     const std::uint8_t* const decided = b.decided;
-    (projected_ ? counter_->projected_batch_by_split : counter_->batch_by_split)[kSplit](
-        *single_, b.query, static_cast<std::size_t>(m), b.counts, b.decided);
-    const double fraction = single_->fractions[0];
+    (projected_ ? counter.projected_batch_by_split : counter.batch_by_split)[kSplit](
+        t, b.query, static_cast<std::size_t>(m), b.counts, b.decided);
+    const double fraction = t.fractions[0];
+    std::int64_t counted = 0;
     // The octants' offsets in registers: an add's store could otherwise alias them.
     std::int64_t offset[8];
     std::copy(corner_offset_, corner_offset_ + 8, offset);
@@ -530,7 +594,7 @@ class PmmQuick {
         declined(i);
         continue;
       }
-      ++tally.counted;
+      ++counted;
       const std::int32_t* c = counts + 8 * j;
       const std::int64_t cell = w.cell[i];
       const double share = w.volume[i] * fraction;
@@ -539,6 +603,9 @@ class PmmQuick {
         if ((o & ~kSplit) == 0) add(cell + offset[o], share * double(c[o]));
       taken(i, false);
     }
+    tally.counted += counted;
+    tally.sub_elements += counted * static_cast<std::int64_t>(t.size());
+    if (counted) tally.templates |= std::uint64_t(1) << templ;
   }
 
   /// A count's adds: share per sub-element into each octant the split axes reach.
@@ -566,8 +633,13 @@ class PmmQuick {
   QuickGrid grid_{};
   double lo_bound_[3];
   std::int64_t first_[3], nx_, nxy_, corner_offset_[8];
-  std::int64_t single_size_ = 0;
   bool window_grid_ = false;
+  /// window_grid(): the bank's templates and their counting codes; with several, their
+  /// diameter thresholds (TemplateBank::thresholds), else empty.
+  std::size_t chunk_templates_ = 0;
+  const kernels::ParticleTemplate* templates_[kMostChunkTemplates] = {};
+  const kernels::OctantCounter* counters_[kMostChunkTemplates] = {};
+  std::span<const double> thresholds_;
 };
 
 /// PmmQuick for one particle (callers that meet a particle at a time).
