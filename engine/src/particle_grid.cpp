@@ -30,12 +30,22 @@ std::int64_t auto_step(double diameter, double cell_volume, const AutoRule& rule
 }
 
 void auto_step_thresholds(double d_min, double d_max, double cell_volume, const AutoRule& rule,
-                          std::int64_t first_step, std::int64_t last_step, std::vector<double>& thresholds) {
+                          std::int64_t first_step, std::int64_t last_step, std::vector<double>& thresholds,
+                          std::vector<double>& known) {
   thresholds.clear();
+  if (known.size() <= static_cast<std::size_t>(last_step)) known.resize(static_cast<std::size_t>(last_step) + 1, 0.0);
   double lo = d_min;  // auto_step(lo) is below the step sought
   for (std::int64_t step = first_step + 1; step <= last_step; ++step) {
+    // A step's threshold is the smallest diameter that reaches it, whatever the bounds of
+    // the search (auto_step rises with d): one found for an earlier bank holds.
+    if (const double t = known[static_cast<std::size_t>(step)]; t > 0) {
+      thresholds.push_back(t);
+      lo = t;
+      continue;
+    }
     if (auto_step(lo, cell_volume, rule) >= step) {  // the step rose by more than one at lo
       thresholds.push_back(lo);
+      known[static_cast<std::size_t>(step)] = lo;
       continue;
     }
     double hi = d_max;  // auto_step(hi) reaches it
@@ -51,6 +61,7 @@ void auto_step_thresholds(double d_min, double d_max, double cell_volume, const 
       (auto_step(mid, cell_volume, rule) >= step ? hi : lo) = mid;
     }
     thresholds.push_back(hi);
+    known[static_cast<std::size_t>(step)] = hi;
     lo = hi;  // the next step's threshold lies beyond
   }
 }
@@ -95,7 +106,15 @@ TemplateBank TemplateCache::prepare(const Options& opts, double d_min, double d_
     const std::int64_t last = auto_step(d_max, v_min, bank.rule);
     for (std::int64_t k = bank.first_step; k <= last; ++k) bank_.push_back(&get(opts, auto_particle_count(k, bank.rule)));
     if (v_min == v_max && last > bank.first_step && d_min > 0) {
-      auto_step_thresholds(d_min, d_max, v_min, bank.rule, bank.first_step, last, thresholds_);
+      const AutoRule& r = bank.rule;
+      if (v_min != threshold_volume_ || r.criterion != threshold_rule_.criterion ||
+          r.max_grid != threshold_rule_.max_grid || r.model.a != threshold_rule_.model.a ||
+          r.model.b != threshold_rule_.model.b) {
+        step_thresholds_.assign(step_thresholds_.size(), 0.0);  // another rule: none known
+        threshold_volume_ = v_min;
+        threshold_rule_ = r;
+      }
+      auto_step_thresholds(d_min, d_max, v_min, r, bank.first_step, last, thresholds_, step_thresholds_);
       bank.threshold_cell_volume = v_min;
       bank.thresholds = thresholds_;
     }

@@ -80,8 +80,7 @@ struct TemplateBank {
   /// The same, remembered in the calling thread's memo for the next sphere of the same
   /// size in a cell of the same volume.
   const kernels::ParticleTemplate& template_for(double diameter, double cell_volume, TemplateMemo& memo) const {
-    if (templates.size() == 1 || (cell_volume == threshold_cell_volume && !thresholds.empty()))
-      return template_for(diameter, cell_volume);
+    if (templates.size() == 1) return *templates.front();
     if (memo.bank != id) {
       memo = TemplateMemo{};
       memo.bank = id;
@@ -128,13 +127,21 @@ class TemplateCache {
   std::int64_t spheres_served_ = 0;  ///< spheres of every compute prepared so far
   std::vector<const kernels::ParticleTemplate*> bank_;
   std::vector<double> thresholds_;  ///< the bank's TemplateBank::thresholds
+  /// Each auto step's threshold diameter (index: step) for cells of threshold_volume_ under
+  /// threshold_rule_, found once: a bisection costs about 60 auto steps, which a compute of a
+  /// few thousand spheres would feel every time.
+  double threshold_volume_ = 0;
+  AutoRule threshold_rule_;
+  std::vector<double> step_thresholds_;
 };
 
 /// The diameters in (d_min, d_max] at which auto_step(d, cell_volume, rule) rises from
 /// first_step to first_step + 1, + 2, ..., last_step: each the smallest double at which the
 /// step reaches its value, found by bisection on auto_step itself (which rises with d).
 /// Into thresholds, whose memory is kept: a steady run of computes allocates nothing.
+/// Entries of known (index: step, from first_step + 1; 0: not known yet) are taken as found.
 void auto_step_thresholds(double d_min, double d_max, double cell_volume, const AutoRule& rule,
-                          std::int64_t first_step, std::int64_t last_step, std::vector<double>& thresholds);
+                          std::int64_t first_step, std::int64_t last_step, std::vector<double>& thresholds,
+                          std::vector<double>& known);
 
 }  // namespace vfe::detail

@@ -55,7 +55,13 @@ TEST(TemplateMemo, GivesTheAutoRulesTemplate) {
 TEST(TemplateBank, ThresholdsGiveTheAutoRulesTemplate) {
   Options opts;
   TemplateCache cache;
-  const double d_min = 0.0005, d_max = 0.0015, v = 8e-9;
+  const double v = 8e-9;
+  // The cache keeps each step's threshold: later banks over other ranges of sizes, inside,
+  // beyond and across the first, reuse them and find the rest.
+  const double ranges[][2] = {{0.0005, 0.0015}, {0.0007, 0.0013}, {0.0004, 0.0011}, {0.0003, 0.002}};
+  for (const auto& range : ranges) {
+  const double d_min = range[0], d_max = range[1];
+  SCOPED_TRACE(d_min);
   const TemplateBank bank = cache.prepare(opts, d_min, d_max, v, v);
   ASSERT_GT(bank.templates.size(), 3u);
   ASSERT_EQ(bank.thresholds.size(), bank.templates.size() - 1);
@@ -80,8 +86,9 @@ TEST(TemplateBank, ThresholdsGiveTheAutoRulesTemplate) {
     ASSERT_EQ(&bank.template_for(d, v, memo), &rules(d, v)) << "d " << d;
     ASSERT_EQ(&bank.template_for(d, 2 * v), &rules(d, 2 * v)) << "d " << d;  // no thresholds for this volume
   }
+  }
   // Cells of several volumes: no thresholds.
-  EXPECT_TRUE(cache.prepare(opts, d_min, d_max, v / 2, v).thresholds.empty());
+  EXPECT_TRUE(cache.prepare(opts, 0.0005, 0.0015, v / 2, v).thresholds.empty());
 }
 
 // The ball's box of cells that method=auto's model locates once on a graded grid, and exact
