@@ -501,7 +501,7 @@ struct Engine::Impl {
 
   void fused_pmm(const ParticleArrays& pa, const detail::AccumulationPlan& pl, const detail::TemplateBank& bank) {
     const detail::Context ctx{detail::MethodContext{opts, bank, divided}, *fused_grid().grid};
-    const detail::PmmQuick quick(ctx);
+    const detail::PmmQuick quick(ctx, true);
     const bool hybrid = opts.method == Method::automatic;
     // method=auto takes the blocks where it leaves every sphere to pmm's quick case.
     const detail::QuickGrid* blocks = quick.window_grid();

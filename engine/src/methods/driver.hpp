@@ -313,7 +313,9 @@ bool deposit_by_octants(const Context& ctx, Scratch& s, const Particle& p, const
 /// so a pass over many particles builds one and calls it per particle.
 class PmmQuick {
  public:
-  explicit PmmQuick(const Context& ctx)
+  /// chunks: for a pass by chunks (window_grid(), finish_chunk); a quick case for one
+  /// particle needs neither, and skips the bank's templates' set-up.
+  explicit PmmQuick(const Context& ctx, bool chunks = false)
       : ctx_(ctx),
         single_(ctx.bank.templates.size() == 1 ? ctx.bank.templates.front() : nullptr),
         counter_(single_ ? &kernels::octant_counter(*single_) : nullptr),
@@ -342,11 +344,11 @@ class PmmQuick {
     // Several templates: each sphere's by the bank's diameter thresholds (spheres of one
     // cell volume), each countable.
     const TemplateBank& bank = ctx.bank;
-    const bool several = !single_ && bank.templates.size() <= kMostChunkTemplates && !bank.thresholds.empty() &&
+    const bool several = chunks && !single_ && bank.templates.size() <= kMostChunkTemplates && !bank.thresholds.empty() &&
                          bank.threshold_cell_volume == grid.cell_volume() &&
                          std::all_of(bank.templates.begin(), bank.templates.end(),
                                      [](const kernels::ParticleTemplate* t) { return !t->split_points.empty(); });
-    window_grid_ = usable_ && from_origin_ && (single_ || several) && bank_rows_ &&
+    window_grid_ = chunks && usable_ && from_origin_ && (single_ || several) && bank_rows_ &&
                    grid.cell_count() < (std::int64_t(1) << 31) && first_[0] == 0 && first_[1] == 0 && first_[2] == 0;
     if (single_) {
       grid_.reach = single_->reach;
@@ -457,8 +459,8 @@ class PmmQuick {
   /// Whether finish_chunk counts from the template's projections on the rotation bank.
   bool counts_from_projections() const { return projected_; }
 
-  /// plan_sphere_windows' grid for this context, or null where the quick cases need more than
-  /// it decides (a block, periodic axes, several templates without the bank's diameter
+  /// plan_sphere_windows' grid for this context (built for chunks), or null where the quick
+  /// cases need more than it decides (a block, periodic axes, several templates without the bank's diameter
   /// thresholds or more than kMostChunkTemplates of them, rotations not from the bank, 2^31
   /// cells or more along an axis).
   const QuickGrid* window_grid() const { return window_grid_ ? &grid_ : nullptr; }
@@ -636,9 +638,11 @@ class PmmQuick {
   bool window_grid_ = false;
   /// window_grid(): the bank's templates and their counting codes; with several, their
   /// diameter thresholds (TemplateBank::thresholds), else empty.
+  /// Entries [0, chunk_templates_) only are set (a PmmQuick for one particle sets none: no
+  /// half a kilobyte to clear per particle).
   std::size_t chunk_templates_ = 0;
-  const kernels::ParticleTemplate* templates_[kMostChunkTemplates] = {};
-  const kernels::OctantCounter* counters_[kMostChunkTemplates] = {};
+  const kernels::ParticleTemplate* templates_[kMostChunkTemplates];
+  const kernels::OctantCounter* counters_[kMostChunkTemplates];
   std::span<const double> thresholds_;
 };
 
