@@ -533,22 +533,10 @@ class PmmQuick {
       const std::uint8_t* set = order[kSplit];
       const std::int32_t m = size[kSplit];
       if (m == 0) return;
-      if (thresholds_.empty()) {
+      if (thresholds_.empty())
         finish_set<kSplit>(tally, w, 0, set, m, buffers, add, taken, declined);
-        return;
-      }
-      // The set's spheres by template (a counting sort), then one template after another.
-      std::int32_t first[kMostChunkTemplates + 1] = {};
-      for (std::int32_t j = 0; j < m; ++j) ++first[templ[set[j]] + 1];
-      for (std::size_t k = 0; k < chunk_templates_; ++k) first[k + 1] += first[k];
-      std::int32_t next[kMostChunkTemplates];
-      std::copy(first, first + chunk_templates_, next);
-      std::uint8_t by_template[kChunk];
-      for (std::int32_t j = 0; j < m; ++j) by_template[next[templ[set[j]]]++] = set[j];
-      for (std::size_t k = 0; k < chunk_templates_; ++k)
-        if (first[k + 1] > first[k])
-          finish_set<kSplit>(tally, w, k, by_template + first[k], first[k + 1] - first[k], buffers, add, taken,
-                             declined);
+      else
+        finish_set_by_template<kSplit>(tally, w, templ, set, m, buffers, add, taken, declined);
     };
     [&]<unsigned... kSet>(std::integer_sequence<unsigned, kSet...>) {
       (finish(std::integral_constant<unsigned, kSet + 1>{}), ...);
@@ -563,6 +551,25 @@ class PmmQuick {
     std::int32_t counts[8 * kChunk];
     std::uint8_t decided[kChunk];
   };
+
+  /// finish_set for spheres order[0, m) of several templates (templ[i]: sphere i's): sorted
+  /// by template (a counting sort), then one template after another. Out of line: the one
+  /// template's code stays as it was.
+  template <unsigned kSplit, class Sink, class Taken, class Declined>
+  [[gnu::noinline]] void finish_set_by_template(Tally& tally, const QuickWindows& w, const std::uint8_t* templ,
+                                                const std::uint8_t* order, std::int32_t m, SetBuffers& b,
+                                                const Sink& add, Taken& taken, Declined& declined) const {
+    std::int32_t first[kMostChunkTemplates + 1] = {};
+    for (std::int32_t j = 0; j < m; ++j) ++first[templ[order[j]] + 1];
+    for (std::size_t k = 0; k < chunk_templates_; ++k) first[k + 1] += first[k];
+    std::int32_t next[kMostChunkTemplates];
+    std::copy(first, first + chunk_templates_, next);
+    std::uint8_t by_template[kChunk];
+    for (std::int32_t j = 0; j < m; ++j) by_template[next[templ[order[j]]]++] = order[j];
+    for (std::size_t k = 0; k < chunk_templates_; ++k)
+      if (first[k + 1] > first[k])
+        finish_set<kSplit>(tally, w, k, by_template + first[k], first[k + 1] - first[k], b, add, taken, declined);
+  }
 
   /// finish_chunk's counted spheres of split set kSplit and template `templ` of the bank:
   /// spheres order[0, m) of w.
