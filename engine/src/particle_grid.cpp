@@ -106,15 +106,12 @@ TemplateBank TemplateCache::prepare(const Options& opts, double d_min, double d_
     const std::int64_t last = auto_step(d_max, v_min, bank.rule);
     for (std::int64_t k = bank.first_step; k <= last; ++k) bank_.push_back(&get(opts, auto_particle_count(k, bank.rule)));
     if (v_min == v_max && last > bank.first_step && d_min > 0) {
-      const AutoRule& r = bank.rule;
-      if (v_min != threshold_volume_ || r.criterion != threshold_rule_.criterion ||
-          r.max_grid != threshold_rule_.max_grid || r.model.a != threshold_rule_.model.a ||
-          r.model.b != threshold_rule_.model.b) {
+      if (v_min != threshold_volume_ || !(bank.rule == threshold_rule_)) {
         step_thresholds_.assign(step_thresholds_.size(), 0.0);  // another rule: none known
         threshold_volume_ = v_min;
-        threshold_rule_ = r;
+        threshold_rule_ = bank.rule;
       }
-      auto_step_thresholds(d_min, d_max, v_min, r, bank.first_step, last, thresholds_, step_thresholds_);
+      auto_step_thresholds(d_min, d_max, v_min, bank.rule, bank.first_step, last, thresholds_, step_thresholds_);
       bank.threshold_cell_volume = v_min;
       bank.thresholds = thresholds_;
     }

@@ -23,6 +23,9 @@ struct AutoRule {
   JumpModel model;
   double criterion = kDefaultJumpCriterion;
   std::int64_t max_grid = 20000;  ///< particle_grid_max
+  bool operator==(const AutoRule& o) const {
+    return model.a == o.model.a && model.b == o.model.b && criterion == o.criterion && max_grid == o.max_grid;
+  }
 };
 
 /// Largest particle grid `auto` may choose.
@@ -65,14 +68,19 @@ struct TemplateBank {
   double threshold_cell_volume = 0;
   std::span<const double> thresholds;
 
+  /// With thresholds: the index in templates of a sphere of this diameter (in a cell of
+  /// threshold_cell_volume), the thresholds it reaches. Compared with each, independently: a
+  /// binary search's chain of loads cost method=auto more (docs/performance.md).
+  std::size_t threshold_index(double diameter) const {
+    std::size_t k = 0;
+    for (const double t : thresholds) k += diameter >= t;
+    return k;
+  }
+
   /// The template of a sphere of this diameter in a cell of this volume.
   const kernels::ParticleTemplate& template_for(double diameter, double cell_volume) const {
     if (templates.size() == 1) return *templates.front();
-    if (cell_volume == threshold_cell_volume && !thresholds.empty()) {
-      std::size_t k = 0;
-      for (const double t : thresholds) k += diameter >= t;
-      return *templates[k];
-    }
+    if (cell_volume == threshold_cell_volume && !thresholds.empty()) return *templates[threshold_index(diameter)];
     const std::int64_t k = auto_step(diameter, cell_volume, rule) - first_step;
     const auto last = static_cast<std::int64_t>(templates.size()) - 1;
     return *templates[static_cast<std::size_t>(k < 0 ? 0 : (k > last ? last : k))];

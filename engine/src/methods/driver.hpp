@@ -344,28 +344,24 @@ class PmmQuick {
     // Several templates: each sphere's by the bank's diameter thresholds (spheres of one
     // cell volume), each countable.
     const TemplateBank& bank = ctx.bank;
-    const bool several = chunks && !single_ && bank.templates.size() <= kMostChunkTemplates && !bank.thresholds.empty() &&
-                         bank.threshold_cell_volume == grid.cell_volume() &&
-                         std::all_of(bank.templates.begin(), bank.templates.end(),
-                                     [](const kernels::ParticleTemplate* t) { return !t->split_points.empty(); });
-    window_grid_ = chunks && usable_ && from_origin_ && (single_ || several) && bank_rows_ &&
+    auto countable = [](const kernels::ParticleTemplate* t) { return !t->split_points.empty(); };
+    several_ = chunks && !single_ && bank.templates.size() <= kMostChunkTemplates && !bank.thresholds.empty() &&
+               bank.threshold_cell_volume == grid.cell_volume() &&
+               std::all_of(bank.templates.begin(), bank.templates.end(), countable);
+    window_grid_ = chunks && usable_ && from_origin_ && (single_ || several_) && bank_rows_ &&
                    grid.cell_count() < (std::int64_t(1) << 31) && first_[0] == 0 && first_[1] == 0 && first_[2] == 0;
-    if (single_) {
-      grid_.reach = single_->reach;
-      grid_.countable = !single_->split_points.empty();
-    }
     if (window_grid_) {
       chunk_templates_ = bank.templates.size();
-      if (several) thresholds_ = bank.thresholds;
       grid_.reach = 0;
+      grid_.countable = true;
       for (std::size_t k = 0; k < chunk_templates_; ++k) {
         templates_[k] = bank.templates[k];
         counters_[k] = &kernels::octant_counter(*templates_[k]);
         // The planning's windows hold every template of the bank: a sphere whose own
         // template lies in one cell may be counted, its points all in one octant.
         grid_.reach = std::max(grid_.reach, templates_[k]->reach);
+        grid_.countable &= countable(templates_[k]);
       }
-      grid_.countable = single_ ? !single_->split_points.empty() : true;
     }
     // A counted sphere's query: its bank slot's projections where the bank has them for the
     // template, else its slot's float rows.
@@ -502,13 +498,9 @@ class PmmQuick {
     static_assert(kChunk <= 256, "a sphere of the chunk is a byte of order");
     const auto add = sink;  // a copy in registers: an add's store could otherwise alias it
     std::uint8_t templ[kChunk];  // each sphere's template in the bank (several templates)
-    if (!thresholds_.empty())
-      for (std::int64_t i = 0; i < n; ++i) {
-        const double d = 2 * radius(i);  // template_for's diameter
-        std::uint8_t k = 0;
-        for (const double t : thresholds_) k += d >= t;
-        templ[i] = k;
-      }
+    if (several_)
+      for (std::int64_t i = 0; i < n; ++i)
+        templ[i] = static_cast<std::uint8_t>(ctx_.bank.threshold_index(2 * radius(i)));  // template_for's diameter
     // The spheres by path, without a branch; the line of each one's first cell asked for.
     std::uint8_t order[QuickWindows::general + 1][kChunk];
     std::int32_t size[QuickWindows::general + 1] = {};
@@ -521,10 +513,10 @@ class PmmQuick {
     for (std::int32_t j = 0; j < size[QuickWindows::fast]; ++j) {
       const std::int64_t i = order[QuickWindows::fast][j];
       add(w.cell[i], w.volume[i]);
-      if (!thresholds_.empty()) used |= std::uint64_t(1) << templ[i];
+      if (several_) used |= std::uint64_t(1) << templ[i];
       taken(i, true);
     }
-    if (size[QuickWindows::fast] > 0 && thresholds_.empty()) used |= 1;
+    if (size[QuickWindows::fast] > 0 && !several_) used |= 1;
     tally.templates |= used;
     tally.fast += size[QuickWindows::fast];
     // One set of buffers for every set of split axes (seven would not stay in L1).
@@ -533,7 +525,7 @@ class PmmQuick {
       const std::uint8_t* set = order[kSplit];
       const std::int32_t m = size[kSplit];
       if (m == 0) return;
-      if (thresholds_.empty())
+      if (!several_)
         finish_set<kSplit>(tally, w, 0, set, m, buffers, add, taken, declined);
       else
         finish_set_by_template<kSplit>(tally, w, templ, set, m, buffers, add, taken, declined);
@@ -643,14 +635,14 @@ class PmmQuick {
   double lo_bound_[3];
   std::int64_t first_[3], nx_, nxy_, corner_offset_[8];
   bool window_grid_ = false;
-  /// window_grid(): the bank's templates and their counting codes; with several, their
-  /// diameter thresholds (TemplateBank::thresholds), else empty.
-  /// Entries [0, chunk_templates_) only are set (a PmmQuick for one particle sets none: no
-  /// half a kilobyte to clear per particle).
+  /// window_grid(): the bank's templates and their counting codes, entries [0,
+  /// chunk_templates_) only (a PmmQuick for one particle sets none: no half a kilobyte to
+  /// clear per particle); several_: more than one, each sphere's found by
+  /// TemplateBank::threshold_index.
   std::size_t chunk_templates_ = 0;
   const kernels::ParticleTemplate* templates_[kMostChunkTemplates];
   const kernels::OctantCounter* counters_[kMostChunkTemplates];
-  std::span<const double> thresholds_;
+  bool several_ = false;
 };
 
 /// PmmQuick for one particle (callers that meet a particle at a time).
