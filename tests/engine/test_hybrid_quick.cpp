@@ -60,32 +60,34 @@ TEST(TemplateBank, ThresholdsGiveTheAutoRulesTemplate) {
   // beyond and across the first, reuse them and find the rest.
   const double ranges[][2] = {{0.0005, 0.0015}, {0.0007, 0.0013}, {0.0004, 0.0011}, {0.0003, 0.002}};
   for (const auto& range : ranges) {
-  const double d_min = range[0], d_max = range[1];
-  SCOPED_TRACE(d_min);
-  const TemplateBank bank = cache.prepare(opts, d_min, d_max, v, v);
-  ASSERT_GT(bank.templates.size(), 3u);
-  ASSERT_EQ(bank.thresholds.size(), bank.templates.size() - 1);
-  EXPECT_EQ(bank.threshold_cell_volume, v);
-  auto rules = [&](double d, double volume) -> const kernels::ParticleTemplate& {
-    const std::int64_t k = auto_step(d, volume, bank.rule) - bank.first_step;
-    const auto last = static_cast<std::int64_t>(bank.templates.size()) - 1;
-    return *bank.templates[static_cast<std::size_t>(std::clamp<std::int64_t>(k, 0, last))];
-  };
-  std::vector<double> diameters = {d_min, d_max};
-  for (std::size_t k = 0; k < bank.thresholds.size(); ++k) {
-    const double t = bank.thresholds[k];
-    if (k > 0) EXPECT_GT(t, bank.thresholds[k - 1]);
-    diameters.insert(diameters.end(), {t, std::nextafter(t, 0.0), std::nextafter(t, 1.0)});
-  }
-  std::mt19937_64 rng(6);
-  std::uniform_real_distribution<double> u(d_min, d_max);
-  for (int i = 0; i < 100000; ++i) diameters.push_back(u(rng));
-  TemplateMemo memo;
-  for (const double d : diameters) {
-    ASSERT_EQ(&bank.template_for(d, v), &rules(d, v)) << "d " << d;
-    ASSERT_EQ(&bank.template_for(d, v, memo), &rules(d, v)) << "d " << d;
-    ASSERT_EQ(&bank.template_for(d, 2 * v), &rules(d, 2 * v)) << "d " << d;  // no thresholds for this volume
-  }
+    const double d_min = range[0], d_max = range[1];
+    SCOPED_TRACE(d_min);
+    const TemplateBank bank = cache.prepare(opts, d_min, d_max, v, v);
+    ASSERT_GT(bank.templates.size(), 3u);
+    ASSERT_EQ(bank.thresholds.size(), bank.templates.size() - 1);
+    EXPECT_EQ(bank.threshold_cell_volume, v);
+    auto rules = [&](double d, double volume) -> const kernels::ParticleTemplate& {
+      const std::int64_t k = auto_step(d, volume, bank.rule) - bank.first_step;
+      const auto last = static_cast<std::int64_t>(bank.templates.size()) - 1;
+      return *bank.templates[static_cast<std::size_t>(std::clamp<std::int64_t>(k, 0, last))];
+    };
+    std::vector<double> diameters = {d_min, d_max};
+    for (std::size_t k = 0; k < bank.thresholds.size(); ++k) {
+      const double t = bank.thresholds[k];
+      if (k > 0) {
+        EXPECT_GT(t, bank.thresholds[k - 1]);
+      }
+      diameters.insert(diameters.end(), {t, std::nextafter(t, 0.0), std::nextafter(t, 1.0)});
+    }
+    std::mt19937_64 rng(6);
+    std::uniform_real_distribution<double> u(d_min, d_max);
+    for (int i = 0; i < 100000; ++i) diameters.push_back(u(rng));
+    TemplateMemo memo;
+    for (const double d : diameters) {
+      ASSERT_EQ(&bank.template_for(d, v), &rules(d, v)) << "d " << d;
+      ASSERT_EQ(&bank.template_for(d, v, memo), &rules(d, v)) << "d " << d;
+      ASSERT_EQ(&bank.template_for(d, 2 * v), &rules(d, 2 * v)) << "d " << d;  // no thresholds for this volume
+    }
   }
   // Cells of several volumes: no thresholds.
   EXPECT_TRUE(cache.prepare(opts, 0.0005, 0.0015, v / 2, v).thresholds.empty());
