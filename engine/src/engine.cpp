@@ -503,12 +503,12 @@ struct Engine::Impl {
     const detail::Context ctx{detail::MethodContext{opts, bank, divided}, *fused_grid().grid};
     const detail::PmmQuick quick(ctx, true);
     const bool hybrid = opts.method == Method::automatic;
-    // method=auto takes the blocks where it leaves every sphere to pmm's quick case.
-    const detail::QuickGrid* blocks = quick.window_grid();
-    if (blocks && hybrid)
+    // method=auto takes the chunks where it leaves every sphere to pmm's quick case.
+    const detail::QuickGrid* chunked = quick.window_grid();
+    if (chunked && hybrid)
       for (const kernels::ParticleTemplate* t : quick.chunk_templates())
-        if (!detail::auto_counts_every_window(*t)) blocks = nullptr;
-    projected_counts = blocks && quick.counts_from_projections();
+        if (!detail::auto_counts_every_window(*t)) chunked = nullptr;
+    projected_counts = chunked && quick.counts_from_projections();
     private_field_pass(pa, pl, [&](Scratch& s, auto&& add, const tbb::blocked_range<std::int64_t>& r) {
       // One particle record for the range, its per-particle fields set in the loop
       // (building a whole record per particle costs as much as a quick case).
@@ -521,7 +521,7 @@ struct Engine::Impl {
           detail::pmm_particle(ctx, s, particle(pa, p));
         for (const Deposit& d : s.deposits) add(d.cell, d.volume);
       };
-      if (const detail::QuickGrid* g = blocks) {
+      if (const detail::QuickGrid* g = chunked) {
         // Windows and thresholds of a few spheres at once (pmm_plan.hpp), then their counts
         // (sorted by path: PmmQuick::finish_chunk).
         constexpr std::int64_t kChunk = detail::PmmQuick::kChunk;

@@ -1,8 +1,9 @@
-// pmm's quick cases decided for several spheres at once: each sphere's window of cells and,
-// where it spans at most two cells per axis, the thresholds of its octant count
-// (methods/driver.hpp, PmmQuick), with each counted sphere's rotation slot and each sphere's
-// volume, four spheres a step, built for baseline x86-64, x86-64-v3 and x86-64-v4 (the
-// newest the CPU has is used) with the same results as one sphere at a time.
+// pmm's quick cases decided for several spheres at once: each sphere's path (fast, counted
+// on a set of split axes, or general), window of cells and, where it spans at most two cells
+// per axis, the thresholds of its octant count (methods/driver.hpp, PmmQuick), with each
+// counted sphere's rotation slot and each sphere's volume, four (packed spheres with AVX-512:
+// eight) spheres a step, built for baseline x86-64, x86-64-v3 and x86-64-v4 (the newest the
+// CPU has is used) with the same results as one sphere at a time.
 #pragma once
 
 #include "particle_arrays.hpp"
