@@ -85,6 +85,7 @@ const kernels::ParticleTemplate& TemplateCache::get(const Options& opts, std::in
       case TemplateFamily::voxel: slot = std::make_unique<kernels::ParticleTemplate>(kernels::make_voxel_template(ni)); break;
     }
     kernels::prepare_octant_split(*slot);
+    if (n >= kPointTreeMinPoints) slot->tree = kernels::make_point_tree(slot->points, slot->fractions);
   }
   return *slot;
 }

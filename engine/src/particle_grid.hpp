@@ -128,6 +128,10 @@ class TemplateCache {
   /// counted sphere (docs/performance.md), so a small one-off compute does not pay for them.
   static constexpr std::int64_t kSpheresBeforeProjections = 1000000;
 
+  /// Templates of at least this many points get their tree of balls (kernels::PointTree):
+  /// a polyMesh then locates a ball that one cell holds at once instead of point by point.
+  static constexpr std::int64_t kPointTreeMinPoints = 64;
+
  private:
   std::map<std::pair<int, std::int64_t>, std::unique_ptr<kernels::ParticleTemplate>> cache_;
   const kernels::ParticleTemplate* projected_ = nullptr;  ///< the template projections_ holds

@@ -176,6 +176,12 @@ void check_sub_elements(const vfe::PolyMesh& mesh, const vfe::CellLocator& locat
   }
 }
 
+/// t with its tree of balls, as the engine's template cache makes it for large templates.
+vfe::kernels::ParticleTemplate with_tree(vfe::kernels::ParticleTemplate t) {
+  t.tree = vfe::kernels::make_point_tree(t.points, t.fractions);
+  return t;
+}
+
 }  // namespace
 
 TEST(PolyMeshEngine, SubElementSearchMatchesThePointLocator) {
@@ -195,6 +201,13 @@ TEST(PolyMeshEngine, SubElementSearchMatchesThePointLocator) {
     check_sub_elements(mesh, locator, bed, make_fibonacci_template(8000), 397, Outside::nearest, s, count);
     check_sub_elements(mesh, locator, bed, vfe::kernels::make_spherical_template(125), 20, Outside::drop, s, count);
     check_sub_elements(mesh, locator, bed, vfe::kernels::make_voxel_template(1000), 83, Outside::centre, s, count);
+    // The same with the templates' trees of balls (where no lattice serves the particle).
+    check_sub_elements(mesh, locator, bed, with_tree(make_fibonacci_template(343)), 20, Outside::nearest, s, count);
+    check_sub_elements(mesh, locator, bed, with_tree(make_fibonacci_template(8000)), 397, Outside::nearest, s, count);
+    check_sub_elements(mesh, locator, bed, with_tree(vfe::kernels::make_spherical_template(125)), 20, Outside::drop, s,
+                       count);
+    check_sub_elements(mesh, locator, bed, with_tree(vfe::kernels::make_voxel_template(1000)), 83, Outside::centre, s,
+                       count);
     EXPECT_GT(count.particles, 4000) << name;
     EXPECT_GT(count.brute_force, count.points / 62) << name;
     if (std::string(name) != "box_graded") {
@@ -238,6 +251,61 @@ TEST(PolyMeshEngine, SubElementSearchMatchesThePointLocatorForBallsGrazingFacePl
       check_sub_elements(mesh, locator, bed, t, 1, vfe::Outside::nearest, s, count, vfe::Orientation::none);
     }
     EXPECT_EQ(count.particles, 1500) << name;
+  }
+}
+
+TEST(PolyMeshEngine, SubElementSearchMatchesThePointLocatorForTreeBallsAcrossFacePlanes) {
+  // A ball of the template's tree that one cell holds puts all its points there at once.
+  // Here a ball's highest point lies within a few 1e-12 of a face's plane or its deep limit
+  // (the ball's centre deep in the cell, its top at or beyond the face): every point must
+  // still get the locator's cell.
+  std::mt19937_64 rng(12);
+  std::uniform_real_distribution<double> u(0, 1);
+  vfe::detail::Scratch s;
+  const vfe::kernels::ParticleTemplate t = with_tree(vfe::kernels::make_fibonacci_template(343));
+  std::vector<std::size_t> tested;  // the nodes that may be tested: fewer than 256 points
+  for (std::size_t k = 0; k < t.tree.nodes.size(); ++k)
+    if (t.tree.nodes[k].count < 256) tested.push_back(k);
+  ASSERT_GT(tested.size(), 20u);
+  for (const char* name : {"cylinder_ogrid_coarse", "snappy_obstacle"}) {
+    const vfe::PolyMesh mesh = vfe::PolyMesh::read(kData + "openfoam/" + name);
+    const vfe::CellLocator locator(mesh);
+    SubElementCheck count;
+    for (int i = 0; i < 600; ++i) {
+      const auto c = static_cast<std::int64_t>(u(rng) * double(mesh.cell_count())) % mesh.cell_count();
+      const auto faces = mesh.cell_faces(c);
+      const std::int64_t f = faces[static_cast<std::size_t>(u(rng) * double(faces.size())) % faces.size()];
+      const Eigen::Vector3d n = mesh.owner(f) == c ? mesh.face_normal(f) : Eigen::Vector3d(-mesh.face_normal(f));
+      // The template turned so that a node's farthest point from its ball's centre lies
+      // straight above that centre along n: the ball's top is that point (turning it keeps
+      // every ball holding its points).
+      const std::size_t k = tested[static_cast<std::size_t>(i) % tested.size()];
+      const vfe::kernels::PointTree::Node& plain = t.tree.nodes[k];
+      Eigen::Vector3d far = plain.centre;
+      for (std::uint32_t q = plain.first; q < plain.first + plain.count; ++q)
+        if ((t.tree.points[q] - plain.centre).norm() > (far - plain.centre).norm()) far = t.tree.points[q];
+      const Eigen::Matrix3d turn = Eigen::Quaterniond::FromTwoVectors(far - plain.centre, n).toRotationMatrix();
+      vfe::kernels::ParticleTemplate turned = t;
+      for (Eigen::Vector3d& q : turned.points) q = turn * q;
+      for (Eigen::Vector3d& q : turned.tree.points) q = turn * q;
+      for (vfe::kernels::PointTree::Node& node : turned.tree.nodes) node.centre = turn * node.centre;
+      const vfe::kernels::PointTree::Node& node = turned.tree.nodes[k];
+      double high = -1e300;
+      for (std::uint32_t q = node.first; q < node.first + node.count; ++q)
+        high = std::max(high, turned.tree.points[q].dot(n));
+      // Particles of a tenth to half a cell across, so that a node's ball fits in the cell.
+      const double size = std::cbrt(mesh.cell_volume(c));
+      const double r = size * (0.1 + 0.4 * u(rng)) / t.reach;
+      const double base = i % 2 == 0 ? -mesh.face_warp(f) - mesh.location_tolerance() : 0.0;
+      const double top = base + 1e-12 * double(i % 7 - 3) * (r + size);
+      const Eigen::Vector3d along = node.centre - node.centre.dot(n) * n;
+      const Eigen::Vector3d centre = mesh.face_centre(f) - r * along + (top - r * high) * n;
+      Particles bed;
+      bed.centres = {centre.x(), centre.y(), centre.z()};
+      bed.radii = {r};
+      check_sub_elements(mesh, locator, bed, turned, 1, vfe::Outside::nearest, s, count, vfe::Orientation::none);
+    }
+    EXPECT_EQ(count.particles, 600) << name;
   }
 }
 

@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <random>
@@ -132,4 +133,59 @@ TEST(RandomRotation, BankedRotationsAreProperDeterministicAndSpread) {
   EXPECT_NE(banked_random_rotation(5, 3), banked_random_rotation(5, 4));
   EXPECT_LT(same_as_previous, 20);  // ~ n / 4096 expected
   EXPECT_LT((mean_axis / n).norm(), 5.0 / std::sqrt(3.0 * n));
+}
+
+TEST(PointTree, NodesHoldTheirPointsAndSplitThemInHalves) {
+  using vfe::kernels::PointTree;
+  for (const vfe::kernels::ParticleTemplate& t :
+       {vfe::kernels::make_fibonacci_template(8000), vfe::kernels::make_spherical_template(343),
+        vfe::kernels::make_voxel_template(1000), vfe::kernels::make_fibonacci_template(17)}) {
+    const PointTree tree = vfe::kernels::make_point_tree(t.points, t.fractions);
+    const std::size_t n = t.size();
+    ASSERT_EQ(tree.points.size(), n);
+    ASSERT_EQ(tree.fractions.size(), n);
+    // The tree's points are the template's, each once, with its own fraction.
+    std::vector<std::size_t> found(n, 0);
+    for (std::size_t i = 0; i < n; ++i) {
+      const auto at = std::find(t.points.begin(), t.points.end(), tree.points[i]);
+      ASSERT_NE(at, t.points.end());
+      const auto k = static_cast<std::size_t>(at - t.points.begin());
+      ++found[k];
+      EXPECT_EQ(tree.fractions[i], t.fractions[k]);
+    }
+    EXPECT_EQ(std::count(found.begin(), found.end(), std::size_t(1)), static_cast<std::ptrdiff_t>(n));
+    ASSERT_FALSE(tree.nodes.empty());
+    EXPECT_EQ(tree.nodes[0].first, 0u);
+    EXPECT_EQ(tree.nodes[0].count, n);
+    EXPECT_EQ(tree.nodes[0].skip, tree.nodes.size());
+    std::size_t leaves = 0, leaf_points = 0;
+    for (std::size_t i = 0; i < tree.nodes.size(); ++i) {
+      const PointTree::Node& node = tree.nodes[i];
+      double sum = 0;
+      for (std::uint32_t q = node.first; q < node.first + node.count; ++q) {
+        EXPECT_LE((tree.points[q] - node.centre).norm(), node.radius) << i;
+        sum += tree.fractions[q];
+      }
+      EXPECT_NEAR(node.fraction, sum, 1e-15) << i;
+      ASSERT_GT(node.skip, i);
+      if (node.leaf()) {
+        EXPECT_EQ(node.skip, i + 1) << "a leaf has no children";
+        ++leaves;
+        leaf_points += node.count;
+        continue;
+      }
+      // Two children, each half of the node's points, the second right after the first's subtree.
+      const PointTree::Node& a = tree.nodes[i + 1];
+      ASSERT_LT(a.skip, node.skip);
+      const PointTree::Node& b = tree.nodes[a.skip];
+      EXPECT_EQ(a.first, node.first);
+      EXPECT_EQ(a.count, node.count / 2);
+      EXPECT_EQ(b.first, a.first + a.count);
+      EXPECT_EQ(b.count, node.count - a.count);
+      EXPECT_EQ(b.skip, node.skip);
+    }
+    EXPECT_EQ(leaf_points, n) << "the leaves partition the points";
+    EXPECT_GE(leaves, (n + PointTree::kLeafPoints - 1) / PointTree::kLeafPoints);
+  }
+  EXPECT_TRUE(vfe::kernels::make_point_tree({}, {}).empty());
 }

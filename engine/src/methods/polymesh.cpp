@@ -35,6 +35,9 @@ constexpr int kMaxWalkSteps = 64;
 // The lattice is tried with at most this many candidate cells and used with at most this
 // many lattice cells.
 constexpr std::size_t kMaxLatticeCandidates = 64, kMaxLatticeCells = 4096;
+// A ball of the template's tree is tested against the cell holding its centre only below
+// this many points: larger ones almost never lie in one cell (docs/performance.md).
+constexpr std::uint32_t kMostPointsTested = 256;
 
 /// The points at the lowest and the highest corner of cell c when the cell is a box, or
 /// (-1, -1): the cell is convex, every face lies in one of the six planes of the box of
@@ -185,6 +188,28 @@ class SubElements {
     }
     return best >= 0 && !(second2 <= best2 * (1 + 1e-9)) ? best : -1;
   }
+
+  /// True when visited cell i holds every point within distance r of x (for every point
+  /// the locator would give cell i): the ball, grown by the margin that covers the rounding
+  /// of the points' coordinates, lies in the cell's bounds and deeper than every face's warp.
+  /// The cached faces are enough: a point of the particle's ball lies deeper than the deep
+  /// limit of every face left out (faces()).
+  bool holds_ball(std::int32_t i, const Eigen::Vector3d& x, double r) {
+    if (!s_.poly_cells[static_cast<std::size_t>(i)].deep) return false;
+    const Scratch::PolyFace* list = faces(i);
+    const Scratch::PolyCell& c = s_.poly_cells[static_cast<std::size_t>(i)];
+    const double grown = r * (1 + 1e-9) + margin_;
+    if (!((x.array() - grown >= c.lo.array()).all() && (x.array() + grown <= c.hi.array()).all())) return false;
+    const double tol = mesh_.location_tolerance();
+    for (std::int64_t k = 0; k < c.face_count; ++k) {
+      const Scratch::PolyFace& f = list[k];
+      if (!(f.normal.dot(x - f.centre) + grown < f.deep_limit - tol)) return false;
+    }
+    return true;
+  }
+
+  /// Whether the particle's box takes the lattice (a point's cell by comparisons).
+  bool lattice() const { return lattice_; }
 
   Scratch::PolyCell& cell(std::int32_t i) { return s_.poly_cells[static_cast<std::size_t>(i)]; }
   Scratch::PolyNear& near_entry(std::int64_t i) { return s_.poly_near[static_cast<std::size_t>(i)]; }
@@ -603,9 +628,9 @@ void polymesh_points(const PolyContext& ctx, Scratch& s, const Particle& p, cons
   SubElements cells(ctx, s, p, half, n, centre_cell);
   std::int64_t centre_or_nearest = centre_cell;  // outside=centre's cell
   const Eigen::Matrix3d transform = rotation * p.radius;
-  for (std::size_t q = 0; q < t.size(); ++q) {
-    const Eigen::Vector3d x = p.centre + transform * t.points[q];
-    const double v = p.volume * t.fractions[q];
+  const auto locate_point = [&](const Eigen::Vector3d& point, double fraction) __attribute__((always_inline)) {
+    const Eigen::Vector3d x = p.centre + transform * point;
+    const double v = p.volume * fraction;
     std::int64_t b = SubElements::kNoBin;
     if (const std::int32_t at = cells.locate(x, b); at >= 0) {
       Scratch::PolyCell& c = cells.cell(at);
@@ -626,6 +651,34 @@ void polymesh_points(const PolyContext& ctx, Scratch& s, const Particle& p, cons
     } else {
       if (centre_or_nearest < 0 && policy == Outside::centre) centre_or_nearest = ctx.locator->nearest_cell(p.centre);
       outside_poly(ctx, s, p, v, x, centre_or_nearest, flagged, policy);
+    }
+  };
+  if (t.tree.empty() || cells.lattice()) {
+    for (std::size_t q = 0; q < t.size(); ++q) locate_point(t.points[q], t.fractions[q]);
+  } else {
+    // Depth first: a ball of points that one cell holds goes there whole; a leaf that no
+    // cell holds, point by point.
+    const auto& nodes = t.tree.nodes;
+    for (std::size_t i = 0; i < nodes.size();) {
+      const kernels::PointTree::Node& node = nodes[i];
+      if (node.count >= kMostPointsTested) {
+        ++i;
+        continue;
+      }
+      const Eigen::Vector3d x = p.centre + transform * node.centre;
+      std::int64_t b = SubElements::kNoBin;
+      if (const std::int32_t at = cells.locate(x, b); at >= 0 && cells.holds_ball(at, x, p.radius * node.radius)) {
+        Scratch::PolyCell& c = cells.cell(at);
+        c.volume += p.volume * node.fraction;
+        c.hits += node.count;
+        i = node.skip;
+      } else if (node.leaf()) {
+        for (std::uint32_t q = node.first; q < node.first + node.count; ++q)
+          locate_point(t.tree.points[q], t.tree.fractions[q]);
+        i = node.skip;
+      } else {
+        ++i;
+      }
     }
   }
   cells.finish();

@@ -5,6 +5,8 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include <vfe/kernels/point_tree.hpp>
+
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -32,6 +34,9 @@ struct ParticleTemplate {
   /// padded to split_words x 8 values. A split plane that misses a group's ball puts the
   /// whole group on one side.
   std::vector<float> split_groups;
+  /// The points in a tree of balls (point_tree.hpp), for meshes whose cells locate points one
+  /// by one (polyMesh); empty unless made (the engine makes it for large templates).
+  PointTree tree;
 
   std::size_t size() const { return points.size(); }
 };
