@@ -262,7 +262,7 @@ TEST(PolyMeshEngine, SubElementSearchMatchesThePointLocatorForTreeBallsAcrossFac
   std::mt19937_64 rng(12);
   std::uniform_real_distribution<double> u(0, 1);
   vfe::detail::Scratch s;
-  const vfe::kernels::ParticleTemplate t = with_tree(vfe::kernels::make_fibonacci_template(343));
+  const vfe::kernels::ParticleTemplate t = with_tree(vfe::kernels::make_fibonacci_template(2000));
   std::vector<std::size_t> tested;  // the nodes that may be tested: fewer than 256 points
   for (std::size_t k = 0; k < t.tree.nodes.size(); ++k)
     if (t.tree.nodes[k].count < 256) tested.push_back(k);

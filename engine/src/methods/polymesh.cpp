@@ -189,23 +189,34 @@ class SubElements {
     return best >= 0 && !(second2 <= best2 * (1 + 1e-9)) ? best : -1;
   }
 
-  /// True when visited cell i holds every point within distance r of x (for every point
-  /// the locator would give cell i): the ball, grown by the margin that covers the rounding
-  /// of the points' coordinates, lies in the cell's bounds and deeper than every face's warp.
+  /// How much of the ball of radius r about x visited cell i holds deep, for the points of
+  /// the particle's ball in it. With `inside` whether the ball, grown by the margin that
+  /// covers the rounding of the points' coordinates, lies in the cell's bounds: the number k
+  /// of faces whose deep limit the grown ball reaches, at most kMostCrossed, put in
+  /// `crossed` (copies: locating a point can grow the cache), or -1 (more, or a cell that
+  /// takes no deep points). A point in the bounds and
+  /// deeper than the k faces' deep limits is deep in cell i: the walk accepts it there, and
+  /// the locator gives cell i. So with k = 0 and the ball in the bounds, every point does.
   /// The cached faces are enough: a point of the particle's ball lies deeper than the deep
   /// limit of every face left out (faces()).
-  bool holds_ball(std::int32_t i, const Eigen::Vector3d& x, double r) {
-    if (!s_.poly_cells[static_cast<std::size_t>(i)].deep) return false;
+  static constexpr int kMostCrossed = 3;
+  int ball_depth(std::int32_t i, const Eigen::Vector3d& x, double r, Scratch::PolyFace crossed[kMostCrossed],
+                 bool& inside) {
+    if (!s_.poly_cells[static_cast<std::size_t>(i)].deep) return -1;
     const Scratch::PolyFace* list = faces(i);
     const Scratch::PolyCell& c = s_.poly_cells[static_cast<std::size_t>(i)];
     const double grown = r * (1 + 1e-9) + margin_;
-    if (!((x.array() - grown >= c.lo.array()).all() && (x.array() + grown <= c.hi.array()).all())) return false;
+    inside = (x.array() - grown >= c.lo.array()).all() && (x.array() + grown <= c.hi.array()).all();
     const double tol = mesh_.location_tolerance();
+    int count = 0;
     for (std::int64_t k = 0; k < c.face_count; ++k) {
       const Scratch::PolyFace& f = list[k];
-      if (!(f.normal.dot(x - f.centre) + grown < f.deep_limit - tol)) return false;
+      if (!(f.normal.dot(x - f.centre) + grown < f.deep_limit - tol)) {
+        if (count == kMostCrossed) return -1;
+        crossed[count++] = f;
+      }
     }
-    return true;
+    return count;
   }
 
   /// Whether the particle's box takes the lattice (a point's cell by comparisons).
@@ -667,14 +678,38 @@ void polymesh_points(const PolyContext& ctx, Scratch& s, const Particle& p, cons
       }
       const Eigen::Vector3d x = p.centre + transform * node.centre;
       std::int64_t b = SubElements::kNoBin;
-      if (const std::int32_t at = cells.locate(x, b); at >= 0 && cells.holds_ball(at, x, p.radius * node.radius)) {
+      Scratch::PolyFace crossed[SubElements::kMostCrossed];
+      bool inside = false;
+      const std::int32_t at = cells.locate(x, b);
+      const int depth = at >= 0 ? cells.ball_depth(at, x, p.radius * node.radius, crossed, inside) : -1;
+      if (depth == 0 && inside) {
         Scratch::PolyCell& c = cells.cell(at);
         c.volume += p.volume * node.fraction;
         c.hits += node.count;
         i = node.skip;
       } else if (node.leaf()) {
-        for (std::uint32_t q = node.first; q < node.first + node.count; ++q)
-          locate_point(t.tree.points[q], t.tree.fractions[q]);
+        // A point in the cell's bounds and deeper than the faces the ball reaches is deep in
+        // the cell, as the walk would find it there; the others are located.
+        // (The cell's bounds copied: locating a point can grow the visited cells.)
+        Eigen::Vector3d lo, hi;
+        if (depth >= 0) lo = cells.cell(at).lo, hi = cells.cell(at).hi;
+        for (std::uint32_t q = node.first; q < node.first + node.count; ++q) {
+          const Eigen::Vector3d& point = t.tree.points[q];
+          bool deep = depth >= 0;
+          if (deep) {
+            const Eigen::Vector3d y = p.centre + transform * point;
+            deep = inside || ((y.array() >= lo.array()).all() && (y.array() <= hi.array()).all());
+            for (int k = 0; k < depth; ++k)
+              deep = deep && crossed[k].normal.dot(y - crossed[k].centre) < crossed[k].deep_limit;
+          }
+          if (deep) {
+            Scratch::PolyCell& c = cells.cell(at);
+            c.volume += p.volume * t.tree.fractions[q];
+            ++c.hits;
+          } else {
+            locate_point(point, t.tree.fractions[q]);
+          }
+        }
         i = node.skip;
       } else {
         ++i;

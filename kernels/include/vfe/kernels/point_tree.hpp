@@ -21,7 +21,7 @@ struct PointTree {
     bool leaf() const { return count <= kLeafPoints; }
   };
   /// A node of more points has two children, halves of its points by the widest axis.
-  static constexpr std::uint32_t kLeafPoints = 16;
+  static constexpr std::uint32_t kLeafPoints = 64;
 
   std::vector<Node> nodes;  ///< depth first, the root (all points) first; empty: no tree
   std::vector<Eigen::Vector3d> points;  ///< the template's points in tree order
