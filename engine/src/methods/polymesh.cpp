@@ -189,16 +189,15 @@ class SubElements {
     return best >= 0 && !(second2 <= best2 * (1 + 1e-9)) ? best : -1;
   }
 
-  /// How much of the ball of radius r about x visited cell i holds deep, for the points of
-  /// the particle's ball in it. With `inside` whether the ball, grown by the margin that
-  /// covers the rounding of the points' coordinates, lies in the cell's bounds: the number k
-  /// of faces whose deep limit the grown ball reaches, at most kMostCrossed, put in
-  /// `crossed` (copies: locating a point can grow the cache), or -1 (more, or a cell that
-  /// takes no deep points). A point in the bounds and
-  /// deeper than the k faces' deep limits is deep in cell i: the walk accepts it there, and
-  /// the locator gives cell i. So with k = 0 and the ball in the bounds, every point does.
-  /// The cached faces are enough: a point of the particle's ball lies deeper than the deep
-  /// limit of every face left out (faces()).
+  /// How deep visited cell i holds the ball of radius r about x (as far as the points of the
+  /// particle's ball go). `inside`: whether the ball, grown by the margin that covers the
+  /// rounding of the points' coordinates, lies in the cell's bounds. Returns the number of
+  /// faces whose deep limit the grown ball reaches, copied into `crossed` (locating a point
+  /// can grow the face cache), or -1 when more than kMostCrossed do or the cell takes no deep
+  /// points. A point in the bounds and deeper than those faces' deep limits is deep in cell
+  /// i: the walk accepts it there, so the locator gives cell i. With no such face and the
+  /// ball inside, every point of the ball is one. The cached faces are enough: every point of
+  /// the particle's ball lies deeper than the deep limit of a face left out (faces()).
   static constexpr int kMostCrossed = 3;
   int ball_depth(std::int32_t i, const Eigen::Vector3d& x, double r, Scratch::PolyFace crossed[kMostCrossed],
                  bool& inside) {
