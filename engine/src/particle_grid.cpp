@@ -85,7 +85,8 @@ const kernels::ParticleTemplate& TemplateCache::get(const Options& opts, std::in
       case TemplateFamily::voxel: slot = std::make_unique<kernels::ParticleTemplate>(kernels::make_voxel_template(ni)); break;
     }
     kernels::prepare_octant_split(*slot);
-    if (n >= kPointTreeMinPoints) slot->tree = kernels::make_point_tree(slot->points, slot->fractions);
+    if (static_cast<std::int64_t>(slot->size()) >= kPointTreeMinPoints)
+      slot->tree = kernels::make_point_tree(slot->points, slot->fractions);
   }
   return *slot;
 }

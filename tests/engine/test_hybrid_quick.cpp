@@ -48,6 +48,34 @@ TEST(TemplateMemo, GivesTheAutoRulesTemplate) {
   EXPECT_GT(changed, 1000);  // the sizes alternate: both entries and their replacement served
 }
 
+// The cache gives a template of kPointTreeMinPoints points or more (whatever size was asked
+// for) its tree of balls, of the template's own points: pmm on a polyMesh places a ball that
+// one cell holds at once. A smaller template gets none.
+TEST(TemplateCache, LargeTemplatesGetTheirTreeOfBalls) {
+  Options opts;
+  TemplateCache cache;
+  for (const TemplateFamily family : {TemplateFamily::fibonacci, TemplateFamily::spherical, TemplateFamily::voxel}) {
+    opts.template_family = family;
+    for (const std::int64_t n : {std::int64_t(27), TemplateCache::kPointTreeMinPoints - 1,
+                                 TemplateCache::kPointTreeMinPoints, std::int64_t(1000)}) {
+      const kernels::ParticleTemplate& t = cache.get(opts, n);
+      if (static_cast<std::int64_t>(t.size()) < TemplateCache::kPointTreeMinPoints) {
+        EXPECT_TRUE(t.tree.empty()) << n;
+        continue;
+      }
+      ASSERT_FALSE(t.tree.empty()) << n;
+      EXPECT_EQ(t.tree.nodes.front().count, t.size());
+      std::vector<Eigen::Vector3d> a = t.points, b = t.tree.points;
+      const auto less = [](const Eigen::Vector3d& x, const Eigen::Vector3d& y) {
+        return std::lexicographical_compare(x.data(), x.data() + 3, y.data(), y.data() + 3);
+      };
+      std::sort(a.begin(), a.end(), less);
+      std::sort(b.begin(), b.end(), less);
+      EXPECT_EQ(a, b) << n;
+    }
+  }
+}
+
 // Where every cell has one volume, a bank of several templates gives a sphere its template by
 // comparing its diameter with the diameters at which the auto step rises: for random
 // diameters, each threshold and its neighbouring doubles, the template is the one the auto
