@@ -638,8 +638,8 @@ void polymesh_points(const PolyContext& ctx, Scratch& s, const Particle& p, cons
   SubElements cells(ctx, s, p, half, n, centre_cell);
   std::int64_t centre_or_nearest = centre_cell;  // outside=centre's cell
   const Eigen::Matrix3d transform = rotation * p.radius;
-  const auto locate_point = [&](const Eigen::Vector3d& point, double fraction) __attribute__((always_inline)) {
-    const Eigen::Vector3d x = p.centre + transform * point;
+  // The sub-element at x (world coordinates) of this share of the volume, into its cell.
+  const auto locate_point = [&](const Eigen::Vector3d& x, double fraction) {
     const double v = p.volume * fraction;
     std::int64_t b = SubElements::kNoBin;
     if (const std::int32_t at = cells.locate(x, b); at >= 0) {
@@ -664,7 +664,7 @@ void polymesh_points(const PolyContext& ctx, Scratch& s, const Particle& p, cons
     }
   };
   if (t.tree.empty() || cells.lattice()) {
-    for (std::size_t q = 0; q < t.size(); ++q) locate_point(t.points[q], t.fractions[q]);
+    for (std::size_t q = 0; q < t.size(); ++q) locate_point(p.centre + transform * t.points[q], t.fractions[q]);
   } else {
     // Depth first: a ball of points that one cell holds goes there whole; a leaf that no
     // cell holds, point by point.
@@ -693,20 +693,16 @@ void polymesh_points(const PolyContext& ctx, Scratch& s, const Particle& p, cons
         Eigen::Vector3d lo, hi;
         if (depth >= 0) lo = cells.cell(at).lo, hi = cells.cell(at).hi;
         for (std::uint32_t q = node.first; q < node.first + node.count; ++q) {
-          const Eigen::Vector3d& point = t.tree.points[q];
-          bool deep = depth >= 0;
-          if (deep) {
-            const Eigen::Vector3d y = p.centre + transform * point;
-            deep = inside || ((y.array() >= lo.array()).all() && (y.array() <= hi.array()).all());
-            for (int k = 0; k < depth; ++k)
-              deep = deep && crossed[k].normal.dot(y - crossed[k].centre) < crossed[k].deep_limit;
-          }
+          const Eigen::Vector3d y = p.centre + transform * t.tree.points[q];
+          bool deep = depth >= 0 && (inside || ((y.array() >= lo.array()).all() && (y.array() <= hi.array()).all()));
+          for (int k = 0; k < depth; ++k)
+            deep = deep && crossed[k].normal.dot(y - crossed[k].centre) < crossed[k].deep_limit;
           if (deep) {
             Scratch::PolyCell& c = cells.cell(at);
             c.volume += p.volume * t.tree.fractions[q];
             ++c.hits;
           } else {
-            locate_point(point, t.tree.fractions[q]);
+            locate_point(y, t.tree.fractions[q]);
           }
         }
         i = node.skip;
