@@ -176,6 +176,19 @@ void check_sub_elements(const vfe::PolyMesh& mesh, const vfe::CellLocator& locat
   }
 }
 
+/// A random cell, one of its faces, and that face's unit normal pointing out of the cell.
+struct CellFace {
+  std::int64_t cell, face;
+  Eigen::Vector3d normal;
+};
+CellFace random_cell_face(const vfe::PolyMesh& mesh, std::mt19937_64& rng) {
+  std::uniform_real_distribution<double> u(0, 1);
+  const auto c = static_cast<std::int64_t>(u(rng) * double(mesh.cell_count())) % mesh.cell_count();
+  const auto faces = mesh.cell_faces(c);
+  const std::int64_t f = faces[static_cast<std::size_t>(u(rng) * double(faces.size())) % faces.size()];
+  return {c, f, mesh.owner(f) == c ? Eigen::Vector3d(mesh.face_normal(f)) : Eigen::Vector3d(-mesh.face_normal(f))};
+}
+
 /// t with its tree of balls, as the engine's template cache makes it for large templates.
 vfe::kernels::ParticleTemplate with_tree(vfe::kernels::ParticleTemplate t) {
   t.tree = vfe::kernels::make_point_tree(t.points, t.fractions);
@@ -229,10 +242,7 @@ TEST(PolyMeshEngine, SubElementSearchMatchesThePointLocatorForBallsGrazingFacePl
     const vfe::CellLocator locator(mesh);
     SubElementCheck count;
     for (int i = 0; i < 1500; ++i) {
-      const auto c = static_cast<std::int64_t>(u(rng) * double(mesh.cell_count())) % mesh.cell_count();
-      const auto faces = mesh.cell_faces(c);
-      const std::int64_t f = faces[static_cast<std::size_t>(u(rng) * double(faces.size())) % faces.size()];
-      const Eigen::Vector3d n = mesh.owner(f) == c ? mesh.face_normal(f) : Eigen::Vector3d(-mesh.face_normal(f));
+      const auto [c, f, n] = random_cell_face(mesh, rng);
       // Unrotated template: a point on the normal at the ball's top, the rest around it.
       vfe::kernels::ParticleTemplate t;
       t.points = {n, (1 - 1e-13) * n, -n, Eigen::Vector3d::Zero()};
@@ -263,19 +273,16 @@ TEST(PolyMeshEngine, SubElementSearchMatchesThePointLocatorForTreeBallsAcrossFac
   std::uniform_real_distribution<double> u(0, 1);
   vfe::detail::Scratch s;
   const vfe::kernels::ParticleTemplate t = with_tree(vfe::kernels::make_fibonacci_template(2000));
-  std::vector<std::size_t> tested;  // the nodes that may be tested: fewer than 256 points
+  std::vector<std::size_t> tested;  // the nodes the engine tests against a cell
   for (std::size_t k = 0; k < t.tree.nodes.size(); ++k)
-    if (t.tree.nodes[k].count < 256) tested.push_back(k);
+    if (t.tree.nodes[k].count < vfe::detail::kMostPointsTested) tested.push_back(k);
   ASSERT_GT(tested.size(), 20u);
   for (const char* name : {"cylinder_ogrid_coarse", "snappy_obstacle"}) {
     const vfe::PolyMesh mesh = vfe::PolyMesh::read(kData + "openfoam/" + name);
     const vfe::CellLocator locator(mesh);
     SubElementCheck count;
     for (int i = 0; i < 600; ++i) {
-      const auto c = static_cast<std::int64_t>(u(rng) * double(mesh.cell_count())) % mesh.cell_count();
-      const auto faces = mesh.cell_faces(c);
-      const std::int64_t f = faces[static_cast<std::size_t>(u(rng) * double(faces.size())) % faces.size()];
-      const Eigen::Vector3d n = mesh.owner(f) == c ? mesh.face_normal(f) : Eigen::Vector3d(-mesh.face_normal(f));
+      const auto [c, f, n] = random_cell_face(mesh, rng);
       // The template turned so that a node's farthest point from its ball's centre lies
       // straight above that centre along n: the ball's top is that point (turning it keeps
       // every ball holding its points).

@@ -35,9 +35,6 @@ constexpr int kMaxWalkSteps = 64;
 // The lattice is tried with at most this many candidate cells and used with at most this
 // many lattice cells.
 constexpr std::size_t kMaxLatticeCandidates = 64, kMaxLatticeCells = 4096;
-// A ball of the template's tree is tested against the cell holding its centre only below
-// this many points: larger ones almost never lie in one cell (docs/performance.md).
-constexpr std::uint32_t kMostPointsTested = 256;
 
 /// The points at the lowest and the highest corner of cell c when the cell is a box, or
 /// (-1, -1): the cell is convex, every face lies in one of the six planes of the box of

@@ -23,6 +23,11 @@ bool ball_inside_cell(const PolyMesh& mesh, std::int64_t cell, const Eigen::Vect
 void outside_poly(const PolyContext& ctx, Scratch& s, const Particle& p, double volume, const Eigen::Vector3d& at,
                   std::int64_t centre_cell, bool& flagged, Outside policy);
 
+/// A ball of a template's tree (kernels::PointTree) is tested against the cell holding its
+/// centre only below this many points: larger ones almost never lie in one cell
+/// (docs/performance.md, "pmm on a polyMesh: balls of template points held whole").
+inline constexpr std::uint32_t kMostPointsTested = 256;
+
 /// Deposits every point of template t (scaled by p.radius, rotated) into the cell that
 /// CellLocator::locate_from (and nearest_cell) would give it, found per particle from the
 /// cells near it (docs/polymesh.md, "How pmm locates sub-elements on a polyMesh"); outside
