@@ -1,4 +1,5 @@
 #include <vfe/kernels/octant_split.hpp>
+#include <vfe/kernels/point_tree.hpp>
 
 #include <algorithm>
 #include <array>
@@ -23,17 +24,8 @@ namespace {
 void group_points(const std::vector<Eigen::Vector3d>& points, std::vector<std::size_t>& order, std::size_t first,
                   std::size_t last) {
   if (last - first <= 8) return;
-  Eigen::Vector3d lo = points[order[first]], hi = lo;
-  for (std::size_t i = first; i < last; ++i) {
-    lo = lo.cwiseMin(points[order[i]]);
-    hi = hi.cwiseMax(points[order[i]]);
-  }
-  int axis = 0;
-  (hi - lo).maxCoeff(&axis);
   const std::size_t mid = first + 8 * ((last - first + 15) / 16);
-  std::nth_element(order.begin() + static_cast<std::ptrdiff_t>(first), order.begin() + static_cast<std::ptrdiff_t>(mid),
-                   order.begin() + static_cast<std::ptrdiff_t>(last),
-                   [&](std::size_t a, std::size_t b) { return points[a][axis] < points[b][axis]; });
+  split_along_widest_axis(points, order, first, mid, last, bounds_of(points, order, first, last));
   group_points(points, order, first, mid);
   group_points(points, order, mid, last);
 }

@@ -11,24 +11,16 @@ namespace {
 /// Appends the subtree of points [first, last) of tree order `order`.
 void build(const std::vector<Eigen::Vector3d>& points, std::vector<std::size_t>& order, std::size_t first,
            std::size_t last, std::vector<PointTree::Node>& nodes) {
-  Eigen::Vector3d lo = points[order[first]], hi = lo;
-  for (std::size_t i = first; i < last; ++i) {
-    lo = lo.cwiseMin(points[order[i]]);
-    hi = hi.cwiseMax(points[order[i]]);
-  }
-  const Eigen::Vector3d centre = 0.5 * (lo + hi);
+  const Eigen::AlignedBox3d bounds = bounds_of(points, order, first, last);
+  const Eigen::Vector3d centre = 0.5 * (bounds.min() + bounds.max());
   double radius = 0;
   for (std::size_t i = first; i < last; ++i) radius = std::max(radius, (points[order[i]] - centre).norm());
   const std::size_t at = nodes.size();
   nodes.push_back({centre, std::nextafter(radius, std::numeric_limits<double>::infinity()), 0.0,
                    static_cast<std::uint32_t>(first), static_cast<std::uint32_t>(last - first), 0});
   if (!nodes[at].leaf()) {
-    int axis = 0;
-    (hi - lo).maxCoeff(&axis);
     const std::size_t mid = first + (last - first) / 2;
-    std::nth_element(order.begin() + static_cast<std::ptrdiff_t>(first),
-                     order.begin() + static_cast<std::ptrdiff_t>(mid), order.begin() + static_cast<std::ptrdiff_t>(last),
-                     [&](std::size_t a, std::size_t b) { return points[a][axis] < points[b][axis]; });
+    split_along_widest_axis(points, order, first, mid, last, bounds);
     build(points, order, first, mid, nodes);
     build(points, order, mid, last, nodes);
   }
@@ -36,6 +28,25 @@ void build(const std::vector<Eigen::Vector3d>& points, std::vector<std::size_t>&
 }
 
 }  // namespace
+
+Eigen::AlignedBox3d bounds_of(const std::vector<Eigen::Vector3d>& points, const std::vector<std::size_t>& order,
+                              std::size_t first, std::size_t last) {
+  Eigen::Vector3d lo = points[order[first]], hi = lo;
+  for (std::size_t i = first; i < last; ++i) {
+    lo = lo.cwiseMin(points[order[i]]);
+    hi = hi.cwiseMax(points[order[i]]);
+  }
+  return {lo, hi};
+}
+
+void split_along_widest_axis(const std::vector<Eigen::Vector3d>& points, std::vector<std::size_t>& order,
+                             std::size_t first, std::size_t mid, std::size_t last, const Eigen::AlignedBox3d& bounds) {
+  int axis = 0;
+  bounds.sizes().maxCoeff(&axis);
+  std::nth_element(order.begin() + static_cast<std::ptrdiff_t>(first), order.begin() + static_cast<std::ptrdiff_t>(mid),
+                   order.begin() + static_cast<std::ptrdiff_t>(last),
+                   [&](std::size_t a, std::size_t b) { return points[a][axis] < points[b][axis]; });
+}
 
 PointTree make_point_tree(const std::vector<Eigen::Vector3d>& points, const std::vector<double>& fractions) {
   PointTree tree;

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 #include <cstddef>
 #include <cstdint>
@@ -29,6 +30,15 @@ struct PointTree {
 
   bool empty() const { return nodes.empty(); }
 };
+
+/// The bounding box of points[order[i]] for i in [first, last) (first < last).
+Eigen::AlignedBox3d bounds_of(const std::vector<Eigen::Vector3d>& points, const std::vector<std::size_t>& order,
+                              std::size_t first, std::size_t last);
+
+/// Reorders order[first, last) so that order[first, mid) holds the points lowest along the
+/// widest axis of `bounds` (theirs, from bounds_of): the split both point groupings use.
+void split_along_widest_axis(const std::vector<Eigen::Vector3d>& points, std::vector<std::size_t>& order,
+                             std::size_t first, std::size_t mid, std::size_t last, const Eigen::AlignedBox3d& bounds);
 
 /// The tree of points (and their fractions): each node's points split in halves along the
 /// widest axis of their bounds, down to kLeafPoints; a node's ball is centred at its points'
