@@ -687,7 +687,7 @@ void polymesh_points(const PolyContext& ctx, Scratch& s, const Particle& p, cons
         // A point in the cell's bounds and deeper than the faces the ball reaches is deep in
         // the cell, as the walk would find it there; the others are located.
         // (The cell's bounds copied: locating a point can grow the visited cells.)
-        Eigen::Vector3d lo, hi;
+        Eigen::Vector3d lo = Eigen::Vector3d::Zero(), hi = lo;  // unused when depth < 0
         if (depth >= 0) lo = cells.cell(at).lo, hi = cells.cell(at).hi;
         for (std::uint32_t q = node.first; q < node.first + node.count; ++q) {
           const Eigen::Vector3d y = p.centre + transform * t.tree.points[q];
