@@ -33,7 +33,7 @@ void Accumulator::abandon() {
     b.deposits.clear();
     b.moved.clear();
   }
-  pending_ = false;
+  pending_ = binned_ = false;
 }
 
 void Accumulator::clear_solid() {
@@ -324,6 +324,7 @@ void Accumulator::apply_incremental(tbb::task_arena& arena) {
 
 bool Accumulator::commit(tbb::task_arena& arena, CellPass* pass) {
   bool passed = false;
+  std::int32_t committed_regions = 0;
   const std::int64_t nblocks = static_cast<std::int64_t>(next_.size());
   moved_list_.clear();
   if (!plan_.fixed_point) fixed_valid_ = false;
@@ -359,13 +360,47 @@ bool Accumulator::commit(tbb::task_arena& arena, CellPass* pass) {
     solid_.swap(work_);
     moved_ = n_;
     kept_ = false;
+  } else if (binned_) {
+    apply_bins(arena, pass);
+    committed_regions = bins_.regions();
+    passed = pass != nullptr;
+    moved_ = n_;
+    kept_ = false;
   } else {
     passed = merge_private(arena, false, pass);
     moved_ = n_;
     kept_ = false;
   }
-  pending_ = false;
+  pending_ = binned_ = false;
+  committed_regions_ = committed_regions;
   return passed;
+}
+
+void Accumulator::apply_bins(tbb::task_arena& arena, CellPass* pass) {
+  static_assert((std::int64_t(1) << 12) % kCellBlock == 0, "a region (2^12 cells or more) holds whole blocks");
+  touched_.clear();
+  touched_valid_ = false;
+  // The deposits kept aside are few (spheres outside the grid, a pool run dry): their
+  // region picks them out of every slot's list.
+  double dropped = 0;
+  for (const std::vector<Deposit>& extra : bins_.extra())
+    for (const Deposit& d : extra)
+      if (d.cell == cells_) dropped += d.volume;
+  arena.execute([&] {
+    tbb::parallel_for(std::int32_t(0), bins_.regions(), [&](std::int32_t r) {
+      const std::int64_t begin = bins_.region_begin(r), end = bins_.region_end(r);
+      double* const solid = solid_.data();
+      std::fill(solid + begin, solid + end, 0.0);
+      bins_.add_region(r, solid);
+      for (const std::vector<Deposit>& extra : bins_.extra())
+        for (const Deposit& d : extra)
+          if (d.cell >= begin && d.cell < end) solid[d.cell] += d.volume;
+      if (pass)
+        for (std::int64_t b = begin; b < end; b += kCellBlock)
+          pass->cells(b / kCellBlock, b, std::min(end, b + kCellBlock), solid);
+    });
+  });
+  dropped_ = dropped;
 }
 
 }  // namespace vfe::detail

@@ -10,6 +10,7 @@
 // engine's.
 #pragma once
 
+#include "cell_bins.hpp"
 #include "methods/driver.hpp"
 #include "options.hpp"
 
@@ -95,6 +96,8 @@ class Accumulator {
   int fixed_exponent() const { return fixed_exponent_; }
   /// Volume that went to the dropped slot in the committed field.
   double dropped() const { return dropped_; }
+  /// The regions of cells the last commit added binned deposits in (deposit_binned), or 0.
+  std::int32_t binned_regions() const { return committed_regions_; }
   /// Particles computed anew by the last commit.
   std::int64_t moved() const { return moved_; }
   /// incremental: the particles the last commit redid, in increasing order.
@@ -137,6 +140,24 @@ class Accumulator {
       throw;
     }
   }
+  /// Phase 1 as deposit_private, into bins by regions of cells (cell_bins.hpp) for a
+  /// field of kBinnedCells or more: pass(thread_bins) where thread_bins() gives this
+  /// thread's BinWriter, add() for at most n deposits of cells below cell_count(), extra()
+  /// for others (the dropped slot: cell_count()). Runs in the arena.
+  template <class Pass>
+  auto deposit_binned(tbb::task_arena& arena, const AccumulationPlan& plan, std::int64_t n, Pass&& pass) {
+    plan_ = plan;
+    n_ = n;
+    pending_ = true;
+    binned_ = true;
+    bins_.start(cells_, n, arena.max_concurrency());
+    try {
+      return pass([this] { return bins_.writer(tbb::this_task_arena::current_thread_index()); });
+    } catch (...) {
+      abandon();
+      throw;
+    }
+  }
   /// Drops phase 1's results (a check after phase 1 failed).
   void abandon();
   /// Phase 2: makes phase 1's deposits the committed field. Returns whether it ran pass
@@ -157,6 +178,8 @@ class Accumulator {
   /// Adds the private fields into solid_ (cleared first unless onto_solid) and zeroes them;
   /// runs pass over the blocks of cells unless touched_only (returns whether it did).
   bool merge_private(tbb::task_arena& arena, bool onto_solid, CellPass* pass = nullptr);
+  /// Makes solid_ the sum of the bins, region by region, and runs pass over its blocks.
+  void apply_bins(tbb::task_arena& arena, CellPass* pass);
   void reduce_blocks(tbb::task_arena& arena);
   void sorted_sum(tbb::task_arena& arena);
   /// Makes solid_ (and dropped_) the doubles of fixed_ at the cells listed, or every cell.
@@ -179,6 +202,9 @@ class Accumulator {
   std::vector<double> work_;  // atomic: the field being computed (+1 slot: dropped)
   tbb::enumerable_thread_specific<PrivateField> private_;
   bool private_dirty_ = false;
+  CellBins bins_;        // deposit_binned's deposits
+  bool binned_ = false;  // phase 1 filled bins_
+  std::int32_t committed_regions_ = 0;
 
   // Blocks: those of phase 1 (next_) and the committed ones (blocks_: incremental, weights).
   std::vector<DepositBlock> blocks_, next_;

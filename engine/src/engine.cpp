@@ -6,6 +6,7 @@
 
 #include "accumulator.hpp"
 #include "engine_mesh.hpp"
+#include "field_facts.hpp"
 #include "methods/exact.hpp"
 #include "methods/hybrid.hpp"
 #include "methods/lattice.hpp"
@@ -442,11 +443,10 @@ struct Engine::Impl {
     const detail::SphereBounds bounds = sphere_bounds();
     const bool periodic = mesh.periodic() != 0;
     const bool on_lattice = mesh.kind() == MeshKind::polyhedral;
-    return acc.deposit_private(pl, pa.n, [&](auto&& thread_field) {
-      const Validation v = reduce_particles(pa.n, [&](const tbb::blocked_range<std::int64_t>& r, Validation& a) {
+    // The pass, with add(cell, volume) and add_extra(cell, volume) for this thread's deposits.
+    auto pass = [&](const tbb::blocked_range<std::int64_t>& r, Validation& a, detail::CentreGrid g, auto&& add,
+                    auto&& add_extra) {
         Scratch& s = scratch.local();
-        double* const field = thread_field();
-        detail::CentreGrid g{};
         for (int d = 0; d < 3; ++d) {
           g.origin[d] = grid.origin()[d];
           g.inv_spacing[d] = 1.0 / grid.spacing()[d];
@@ -454,13 +454,12 @@ struct Engine::Impl {
         }
         g.strides[0] = static_cast<std::int32_t>(grid.cells()[0]);
         g.strides[1] = static_cast<std::int32_t>(grid.cells()[0] * grid.cells()[1]);
-        g.field = field;
         g.cell_map = map;
         if (on_lattice) s.lattice_particles += r.size();
         auto by_driver = [&](std::int64_t p) {
           s.deposits.clear();
           detail::direct_particle(ctx, s, particle(pa, p));
-          for (const Deposit& d : s.deposits) field[map ? map[d.cell] : d.cell] += d.volume;
+          for (const Deposit& d : s.deposits) add_extra(map ? map[d.cell] : d.cell, d.volume);
         };
         std::int64_t left[kChunk];
         for (std::int64_t first = r.begin(); first < r.end(); first += kChunk) {
@@ -474,13 +473,37 @@ struct Engine::Impl {
           if (!detail::check_sphere_chunk(pa, first, count, bounds, a)) continue;  // the compute fails
           for (std::int64_t p = first; p < first + count; ++p) {
             if (const std::int64_t cell = grid.locate(mesh.wrap(pa.centre(p))); cell >= 0) {
-              field[cell] += sphere_volume(pa.radius(p));
+              add(cell, sphere_volume(pa.radius(p)));
               ++s.sub_elements;
             } else {
               by_driver(p);
             }
           }
         }
+    };
+    // Bins where several threads would each fill and merge a large private field (one
+    // thread's field is cheaper than bins: cell_bins.hpp).
+    if (opts.accumulation == Accumulation::automatic && arena->max_concurrency() > 1 &&
+        mesh.cell_count() >= detail::kBinnedCells)
+      return acc.deposit_binned(*arena, pl, pa.n, [&](auto&& thread_bins) {
+        const Validation v = reduce_particles(pa.n, [&](const tbb::blocked_range<std::int64_t>& r, Validation& a) {
+          detail::BinWriter bins = thread_bins();
+          detail::CentreGrid g{};
+          g.bins = &bins;
+          pass(
+              r, a, g, [&](std::int64_t cell, double v) { bins.add(static_cast<std::int32_t>(cell), v); },
+              [&](std::int64_t cell, double v) { bins.extra(cell, v); });
+        });
+        check_validation(pa, v);
+        return v;
+      });
+    return acc.deposit_private(pl, pa.n, [&](auto&& thread_field) {
+      const Validation v = reduce_particles(pa.n, [&](const tbb::blocked_range<std::int64_t>& r, Validation& a) {
+        double* const field = thread_field();
+        detail::CentreGrid g{};
+        g.field = field;
+        auto add = [field](std::int64_t cell, double v) { field[cell] += v; };
+        pass(r, a, g, add, add);
       });
       check_validation(pa, v);
       return v;
@@ -770,6 +793,7 @@ struct Engine::Impl {
     counted_particles = 0;
     for (const Scratch& sc : scratch) counted_particles += sc.counted;
     fused_pass = fused;  // validation and deposits in one pass
+    binned_regions = acc.binned_regions();
     ordered_blocks = arranged_blocks;
     if (log->should_log(spdlog::level::info))  // the note allocates: steady-state computes must not
       log->info("computed {} particles with {} on a {}{}: {} moved, {} sub-elements, {} on the fast path, {} outside",
@@ -1044,6 +1068,7 @@ struct Engine::Impl {
   // validation and deposits ran as one pass.
   std::int64_t counted_particles = 0;
   bool fused_pass = false;
+  std::int32_t binned_regions = 0;  ///< the last compute's regions of binned deposits (0: none)
   bool projected_counts = false;  ///< pmm's counts took the template's projections on the bank
   /// Particles of the last compute that the box lattice's grid path took.
   std::int64_t lattice_particles = 0;
@@ -1052,39 +1077,14 @@ struct Engine::Impl {
   /// exact on a polyMesh: cut-cell overlaps of the last compute by the located sum and by
   /// the general formula.
   std::int64_t located_cells = 0, general_cells = 0;
-  /// What the report says of the field: its sum, the solid volume that clipping eps at
-  /// alpha_min removes (0 when alpha_min is 0: no clip), and the overfull cells.
-  struct FieldFacts {
-    double sum = 0, clipped = 0, overfull_volume = 0;
-    std::int64_t overfull_cells = 0;
-    void add(const FieldFacts& o) {
-      sum += o.sum, clipped += o.clipped, overfull_volume += o.overfull_volume, overfull_cells += o.overfull_cells;
-    }
-  };
-  /// Adds cells [begin, end) of f to facts, cell by cell in order; cell_volume(c) gives V_c.
-  template <class CellVolume>
-  void add_facts(const double* f, std::int64_t begin, std::int64_t end, CellVolume&& cell_volume,
-                 FieldFacts& facts) const {
-    const double keep = 1.0 - opts.alpha_min;  // of a cell's volume, what clipping leaves solid
-    const bool clip = opts.alpha_min > 0;
-    for (std::int64_t c = begin; c < end; ++c) {
-      const double x = f[c], v = cell_volume(c);
-      facts.sum += x;
-      if (clip) facts.clipped += std::max(0.0, x - keep * v);
-      if (const double excess = x - v; excess > 1e-12 * v) [[unlikely]] {
-        ++facts.overfull_cells;
-        facts.overfull_volume += excess;
-      }
-    }
-  }
-  /// add_facts over cells [begin, end) of f, with a Cartesian grid's one cell volume.
+  using FieldFacts = detail::FieldFacts;
+  /// The facts of cells [begin, end) of f added to facts.
   void add_block_facts(const double* f, std::int64_t begin, std::int64_t end, FieldFacts& facts) const {
-    if (const CartesianGrid* g = mesh.cartesian()) {
-      const double v = g->cell_volume();
-      add_facts(f, begin, end, [v](std::int64_t) { return v; }, facts);
-    } else {
-      add_facts(f, begin, end, [this](std::int64_t c) { return mesh.cell_volume(c); }, facts);
-    }
+    if (const CartesianGrid* g = mesh.cartesian())
+      detail::add_uniform_field_facts(f, begin, end, g->cell_volume(), opts.alpha_min, facts);
+    else
+      detail::add_field_facts(f, begin, end, [this](std::int64_t c) { return mesh.cell_volume(c); }, opts.alpha_min,
+                              facts);
   }
 
   /// The facts of each block of the field (detail::kCellBlock cells), summed in block order
@@ -1352,6 +1352,7 @@ double Engine::last_report_value(std::string_view key) const {
       {"overfull_volume", impl_->overfull_volume},
       {"counted_particles", double(impl_->counted_particles)},
       {"fused_pass", impl_->fused_pass ? 1.0 : 0.0},
+      {"binned_regions", double(impl_->have_field ? impl_->binned_regions : 0)},
       {"projected_counts", impl_->have_field && impl_->projected_counts ? 1.0 : 0.0},
       {"ordered_blocks", double(impl_->have_field ? impl_->ordered_blocks : 0)},
       {"lattice_cells", impl_->mesh.lattice() ? double(impl_->mesh.cell_count()) : 0.0},

@@ -92,8 +92,7 @@ void plan_all(const ParticleArrays& pa, std::int64_t first, std::int64_t count, 
   packed(pa) ? plan_block<true>(pa, first, count, g, out) : plan_block<false>(pa, first, count, g, out);
 }
 
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-#define VFE_PLAN_V3 1
+#ifdef VFE_HAS_V3_BUILD
 __attribute__((target("arch=x86-64-v3"))) void plan_all_v3(const ParticleArrays& pa, std::int64_t first,
                                                             std::int64_t count, const QuickGrid& g, QuickWindows& out) {
   packed(pa) ? plan_block<true>(pa, first, count, g, out) : plan_block<false>(pa, first, count, g, out);
@@ -177,10 +176,6 @@ __attribute__((target("arch=x86-64-v4"))) void plan_all_v4(const ParticleArrays&
   for (; k + 4 <= count; k += 4) plan_four<true>(pa, first + k, 4, g, out, k);
   if (k < count) plan_four<true>(pa, first + k, static_cast<int>(count - k), g, out, k);
 }
-bool has_v3() {
-  static const bool yes = __builtin_cpu_supports("x86-64-v3");
-  return yes;
-}
 bool has_v4() {
   static const bool yes = __builtin_cpu_supports("x86-64-v4");
   return yes;
@@ -191,9 +186,9 @@ bool has_v4() {
 
 void plan_sphere_windows(const ParticleArrays& pa, std::int64_t first, std::int64_t count, const QuickGrid& g,
                          QuickWindows& out, [[maybe_unused]] PlanBuild build) {
-#ifdef VFE_PLAN_V3
+#ifdef VFE_HAS_V3_BUILD
   if (build == PlanBuild::fastest && has_v4()) return plan_all_v4(pa, first, count, g, out);
-  if ((build == PlanBuild::fastest || build == PlanBuild::avx2) && has_v3())
+  if ((build == PlanBuild::fastest || build == PlanBuild::avx2) && cpu_has_x86_64_v3())
     return plan_all_v3(pa, first, count, g, out);
 #endif
   plan_all(pa, first, count, g, out);

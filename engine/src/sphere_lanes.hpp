@@ -11,6 +11,18 @@
 #include <cstring>
 #include <numbers>
 
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+/// The passes have a second build for x86-64-v3 (AVX2, FMA), chosen at run time.
+#define VFE_HAS_V3_BUILD 1
+namespace vfe::detail {
+/// Whether this CPU runs the x86-64-v3 builds.
+inline bool cpu_has_x86_64_v3() {
+  static const bool yes = __builtin_cpu_supports("x86-64-v3");
+  return yes;
+}
+}  // namespace vfe::detail
+#endif
+
 namespace vfe::detail::lanes {
 
 using v4d = double __attribute__((vector_size(32)));

@@ -1,5 +1,6 @@
 #include "sphere_pass.hpp"
 
+#include "cell_bins.hpp"
 #include "sphere_lanes.hpp"
 
 #include <algorithm>
@@ -102,19 +103,28 @@ template <bool kPacked, bool kDeposit>
   for (; k + 4 <= count; k += 4) step(std::true_type{}, k, 4);
   if (k < count) step(std::false_type{}, k, static_cast<int>(count - k));
   if constexpr (kDeposit) {
-    // One loop per numbering, so the grid's own keeps its plain indexed add.
-    auto deposit = [&](auto field_index) {
+    // One loop per numbering and destination, so the grid's own field keeps its plain
+    // indexed add.
+    auto deposit = [&](auto&& add) __attribute__((always_inline)) {
       for (std::int64_t i = 0; i < count; ++i) {
         if (cells[i] >= 0) [[likely]]
-          field[field_index(cells[i])] += volumes[i];
+          add(cells[i], volumes[i]);
         else
           left[nleft++] = first + i;
       }
     };
-    if (const std::int64_t* map = g->cell_map; map)
-      deposit([map](auto cell) { return map[cell]; });
-    else
-      deposit([](auto cell) { return cell; });
+    const std::int64_t* const map = g->cell_map;
+    if (g->bins) {
+      BinWriter bins = *g->bins;  // a local copy: the pages' stores cannot alias its pointers
+      if (map)
+        deposit([&](std::int32_t c, double v) { bins.add(static_cast<std::int32_t>(map[c]), v); });
+      else
+        deposit([&](std::int32_t c, double v) { bins.add(c, v); });
+    } else if (map) {
+      deposit([&](std::int32_t c, double v) { field[map[c]] += v; });
+    } else {
+      deposit([&](std::int32_t c, double v) { field[c] += v; });
+    }
   }
 
   if ((ok[0] & ok[1] & ok[2] & ok[3]) == 0) [[unlikely]] {
@@ -141,24 +151,19 @@ std::int64_t baseline_pass(const ParticleArrays& pa, std::int64_t first, std::in
   return g ? either_pass<true>(pa, first, count, b, g, a, left) : either_pass<false>(pa, first, count, b, g, a, left);
 }
 
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-#define VFE_SPHERE_PASS_V3 1
+#ifdef VFE_HAS_V3_BUILD
 // The same source built for AVX2 + FMA: four lanes in one register.
 __attribute__((target("arch=x86-64-v3"))) std::int64_t v3_pass(const ParticleArrays& pa, std::int64_t first,
                                                                 std::int64_t count, const SphereBounds& b,
                                                                 const CentreGrid* g, Validation& a, std::int64_t* left) {
   return g ? either_pass<true>(pa, first, count, b, g, a, left) : either_pass<false>(pa, first, count, b, g, a, left);
 }
-bool has_v3() {
-  static const bool yes = __builtin_cpu_supports("x86-64-v3");
-  return yes;
-}
 #endif
 
 std::int64_t pass(const ParticleArrays& pa, std::int64_t first, std::int64_t count, const SphereBounds& b,
                   const CentreGrid* g, Validation& a, std::int64_t* left, [[maybe_unused]] PassBuild build) {
-#ifdef VFE_SPHERE_PASS_V3
-  if (build == PassBuild::fastest && has_v3()) return v3_pass(pa, first, count, b, g, a, left);
+#ifdef VFE_HAS_V3_BUILD
+  if (build == PassBuild::fastest && cpu_has_x86_64_v3()) return v3_pass(pa, first, count, b, g, a, left);
 #endif
   return baseline_pass(pa, first, count, b, g, a, left);
 }

@@ -9,6 +9,8 @@
 
 namespace vfe::detail {
 
+class BinWriter;
+
 /// Particles per call of the passes below: a chunk's particles left to the caller fit a
 /// buffer of this size on the stack.
 inline constexpr std::int64_t kSphereChunk = 256;
@@ -20,6 +22,7 @@ struct CentreGrid {
   double origin[3], inv_spacing[3], cells[3];
   std::int32_t strides[2];
   double* field;  ///< the thread's field
+  BinWriter* bins = nullptr;  ///< instead of field: the thread's bins (cell_bins.hpp)
   /// Grid cell -> field index (a polyMesh's box lattice, BoxLattice::cell_map); null: the
   /// grid's own index.
   const std::int64_t* cell_map = nullptr;
@@ -39,7 +42,7 @@ bool check_sphere_chunk(const ParticleArrays& pa, std::int64_t first, std::int64
                         Validation& a, PassBuild build = PassBuild::fastest);
 
 /// check_sphere_chunk, and each sphere whose centre lies in g adds its volume to its cell
-/// of g.field (renumbered by g.cell_map). Returns how many spheres it left to the caller, their indices in
+/// of g.field or g.bins (renumbered by g.cell_map). Returns how many spheres it left to the caller, their indices in
 /// left[0 ..): centres outside the grid, in order. A chunk holding a bad particle returns
 /// 0 (the compute fails; what it added lies within the field, to be dropped).
 std::int64_t deposit_sphere_chunk(const ParticleArrays& pa, std::int64_t first, std::int64_t count,

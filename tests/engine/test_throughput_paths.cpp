@@ -2,6 +2,8 @@
 // against locating every sub-element (fast_path=0), and direct's fused validate-and-deposit
 // pass against the general particle loop (accumulation=atomic takes it). The general paths
 // are the references: a sub-element in another cell moves V/n, far above the tolerances.
+#include "accumulator.hpp"
+#include "cell_bins.hpp"
 #include "particles.hpp"
 #include "particle_grid.hpp"
 
@@ -11,7 +13,9 @@
 
 #include <cmath>
 #include <limits>
+#include <numbers>
 #include <random>
+#include <thread>
 
 namespace vfe::test {
 namespace {
@@ -298,6 +302,135 @@ TEST(FusedDirect, ABadParticleAnywhereFailsTheComputeAndLeavesTheOutputAlone) {
       // added in another order.
       expect_same_field(again, good, 1e-15 * p.volume(), "after the failed computes");
     }
+}
+
+// direct's fused pass with two threads on a grid of 2^18 cells sorts its deposits into
+// bins by regions of cells. The reference: each sphere's volume added to the cell holding
+// its centre by floor, in one loop (outside=drop, no periodic axis), and the general loop
+// (accumulation=atomic) under every outside policy and with a periodic axis.
+TEST(BinnedDirect, EqualsABruteForceSumAndTheGeneralLoop) {
+  const double h = 0.25;
+  const int n = 64;  // 64^3 cells: detail::kBinnedCells
+  ASSERT_EQ(std::int64_t(n) * n * n, detail::kBinnedCells);
+  // Enough spheres that accumulation=auto takes per-thread sums, not atomics (8 per cell
+  // and thread).
+  const Particles p = random_spheres(51, 70000, -0.5, n * h + 0.5, 0.02, 0.2);
+  std::vector<double> brute(std::size_t(n) * n * n, 0.0);
+  double dropped = 0;
+  for (std::size_t i = 0; i < p.radii.size(); ++i) {
+    const double v = 4.0 / 3.0 * std::numbers::pi * p.radii[i] * p.radii[i] * p.radii[i];
+    std::int64_t at[3];
+    bool inside = true;
+    for (int d = 0; d < 3; ++d) {
+      at[d] = static_cast<std::int64_t>(std::floor(p.centres[3 * i + d] / h));
+      inside = inside && at[d] >= 0 && at[d] < n;
+    }
+    if (inside)
+      brute[static_cast<std::size_t>(at[0] + n * (at[1] + n * at[2]))] += v;
+    else
+      dropped += v;
+  }
+  ASSERT_GT(dropped, 0.0);
+  const double tol = 1e-15 * p.volume();
+  // Sums over every cell in two orders: within the summation bound cells eps volume.
+  const double sum_tol = double(brute.size()) * std::numeric_limits<double>::epsilon() * p.volume();
+  // The dropped shares in another order: within n eps dropped.
+  const double dropped_tol = double(p.radii.size()) * std::numeric_limits<double>::epsilon() * dropped;
+  for (const char* policy : {"drop", "nearest", "centre"})
+    for (const char* periodic : {"none", "x"}) {
+      const std::string o = std::string("method=direct alpha_min=0.2 outside=") + policy + " periodic=" + periodic;
+      SCOPED_TRACE(o);
+      Engine binned(grid(h, n, n, n)), general(grid(h, n, n, n));
+      const std::vector<double> a = run(binned, p, o + " threads=2");
+      const std::vector<double> b = run(general, p, o + " threads=2 accumulation=atomic");
+      EXPECT_GE(binned.last_report_value("binned_regions"), 2.0);
+      EXPECT_EQ(binned.last_report_value("fused_pass"), 1.0);
+      expect_same_field(a, b, tol, o);
+      const Report& ra = binned.last_report();
+      const Report& rb = general.last_report();
+      EXPECT_EQ(ra.particle_volume, rb.particle_volume);
+      EXPECT_EQ(ra.outside_particles, rb.outside_particles);
+      EXPECT_NEAR(ra.dropped_volume, rb.dropped_volume, dropped_tol);
+      EXPECT_NEAR(ra.deposited_volume, total(a), sum_tol);
+      EXPECT_NEAR(ra.clipped_volume, rb.clipped_volume, sum_tol);
+      EXPECT_GT(ra.clipped_volume, 0.0);
+      EXPECT_EQ(binned.last_report_value("overfull_cells"), general.last_report_value("overfull_cells"));
+      if (std::string(policy) == "drop" && std::string(periodic) == "none") {
+        expect_same_field(a, brute, tol, "against the brute-force sum");
+        EXPECT_NEAR(ra.dropped_volume, dropped, dropped_tol);
+      }
+    }
+  // One thread, or private fields asked for: no bins, the same field.
+  for (const char* o : {"method=direct outside=drop threads=1", "method=direct outside=drop threads=2 accumulation=private"}) {
+    Engine e(grid(h, n, n, n));
+    expect_same_field(run(e, p, o), brute, tol, o);
+    EXPECT_EQ(e.last_report_value("binned_regions"), 0.0) << o;
+  }
+  // Below 2^18 cells: no bins.
+  Engine small(grid(h, n, n, n - 1));
+  run(small, p, "method=direct outside=drop threads=2");
+  EXPECT_EQ(small.last_report_value("binned_regions"), 0.0);
+}
+
+TEST(BinnedDirect, ABadParticleLeavesTheOutputAndTheNextComputeIntact) {
+  const Particles p = random_spheres(52, 70000, 0.0, 16.0, 0.05, 0.2);
+  Engine e(grid(0.25, 64, 64, 64));
+  const std::vector<double> good = run(e, p, "method=direct threads=2");
+  ASSERT_GT(e.last_report_value("binned_regions"), 0.0);
+  Particles bad = p;
+  bad.radii[15000] = std::numeric_limits<double>::quiet_NaN();
+  std::vector<double> out(e.cell_count(), 7.0);
+  EXPECT_THROW(e.compute(bad.view(), out), Error);
+  for (const double x : out) ASSERT_EQ(x, 7.0);
+  std::vector<double> again(e.cell_count(), -1.0);
+  e.compute(p.view(), again);
+  expect_same_field(again, good, 1e-15 * p.volume(), "after the failed compute");
+}
+
+// The bins on their own: two threads write more deposits than the pool was sized for, so
+// some pages run out and the rest are kept aside; every deposit must still reach its cell
+// once. Whole-number volumes: every order of adds gives the same sums exactly.
+TEST(CellBins, EveryDepositReachesItsCellOnceWhenThePoolRunsDry) {
+  const std::int64_t cells = 3 * (std::int64_t(1) << 16) + 5;
+  detail::CellBins bins;
+  for (const int round : {0, 1}) {  // the second start reuses the pool
+    bins.start(cells, 1000, 2);     // 1000 deposits announced, 40000 written
+    ASSERT_GE(bins.regions(), 4);
+    std::vector<double> expected(static_cast<std::size_t>(cells) + 1, 0.0);
+    std::vector<std::pair<std::int64_t, double>> deposits[2];
+    std::mt19937_64 rng(60 + round);
+    std::uniform_int_distribution<std::int64_t> cell(0, cells - 1);
+    std::uniform_int_distribution<int> volume(1, 9);
+    for (auto& d : deposits)
+      for (int i = 0; i < 20000; ++i) d.push_back({cell(rng), double(volume(rng))});
+    deposits[1].push_back({cells, 5.0});  // the dropped slot, kept aside
+    for (const auto& d : deposits)
+      for (const auto& [c, v] : d) expected[static_cast<std::size_t>(c)] += v;
+    std::thread writers[2];
+    for (int slot = 0; slot < 2; ++slot)
+      writers[slot] = std::thread([&, slot] {
+        detail::BinWriter w = bins.writer(slot);
+        for (const auto& [c, v] : deposits[slot])
+          if (c == cells)
+            w.extra(c, v);
+          else
+            w.add(static_cast<std::int32_t>(c), v);
+      });
+    for (std::thread& t : writers) t.join();
+    std::size_t aside = 0;
+    for (const auto& e : bins.extra()) aside += e.size();
+    EXPECT_GT(aside, 1000u);  // the pool ran dry
+    std::vector<double> field(static_cast<std::size_t>(cells) + 1, 0.0);
+    for (std::int32_t r = 0; r < bins.regions(); ++r) {  // whole blocks of the field's passes, end to end
+      EXPECT_EQ(bins.region_begin(r) % detail::kCellBlock, 0);
+      EXPECT_EQ(bins.region_begin(r), r == 0 ? 0 : bins.region_end(r - 1));
+      bins.add_region(r, field.data());
+    }
+    EXPECT_EQ(bins.region_end(bins.regions() - 1), cells);
+    for (const auto& e : bins.extra())
+      for (const auto& d : e) field[static_cast<std::size_t>(d.cell)] += d.volume;
+    EXPECT_EQ(field, expected);
+  }
 }
 
 }  // namespace
