@@ -4,6 +4,7 @@
 // grid of the same cells with its field permuted into the polyMesh's order.
 #include <vfe/engine.hpp>
 
+#include "block_mesh.hpp"
 #include "box_lattice.hpp"
 #include "particles.hpp"
 #include "polymesh/polymesh.hpp"
@@ -264,6 +265,32 @@ TEST(BoxLattice, EqualsTheGridOfTheSameCellsPermuted) {
     expect_fields_near(poly_u, permuted_u, tol, std::string("uniform ") + method);
     expect_fields_near(poly_g, permuted_g, tol, std::string("graded ") + method);
   }
+}
+
+// direct with two threads on a lattice of 2^18 cells sorts its deposits into bins, by the
+// polyMesh's cells (here numbered in shuffled order): the grid of the same cells with its
+// field permuted, and the general polyMesh path where spheres reach outside (nearest).
+TEST(BoxLattice, BinnedDirectTakesThePolyMeshNumbering) {
+  const int n = 64;
+  const vfe::PolyMesh block(vfe::test::block_mesh({vfe::test::nodes(n, 0, 16), vfe::test::nodes(n, 0, 16),
+                                                   vfe::test::nodes(n, 0, 16)}));
+  const std::vector<std::int64_t> perm = shuffled(block.cell_count(), 10);
+  const MeshArrays arrays(block, perm);
+  vfe::Engine poly(arrays.view()), cartesian(vfe::test::grid(0.25, n, n, n));
+  // Enough spheres that accumulation=auto takes per-thread sums, not atomics.
+  const Particles p = vfe::test::random_spheres(53, 70000, -0.5, 16.5, 0.02, 0.2);
+  const double tol = 1e-15 * p.volume();
+  const std::vector<double> a = run(poly, p, "method=direct threads=2 outside=drop");
+  EXPECT_GT(poly.last_report_value("binned_regions"), 0.0);
+  EXPECT_GT(poly.last_report_value("lattice_particles"), 0.0);
+  const std::vector<double> b = run(cartesian, p, "method=direct threads=2 outside=drop accumulation=atomic");
+  std::vector<double> permuted(b.size());
+  for (std::size_t c = 0; c < b.size(); ++c) permuted[static_cast<std::size_t>(perm[c])] = b[c];
+  expect_fields_near(a, permuted, tol, "outside=drop");
+  const std::vector<double> near = run(poly, p, "method=direct threads=2 outside=nearest");
+  EXPECT_GT(poly.last_report_value("binned_regions"), 0.0);
+  const std::vector<double> general = run(poly, p, "method=direct threads=2 outside=nearest lattice=0");
+  expect_fields_near(near, general, tol, "outside=nearest");
 }
 
 // The weights, deposit and interpolate stay in the polyMesh's numbering.
