@@ -658,7 +658,8 @@ struct Engine::Impl {
 
   // --- accumulation plan ----------------------------------------------------------------
 
-  detail::AccumulationPlan plan(std::int64_t n) const {
+  detail::AccumulationPlan plan(const ParticleArrays& pa) const {
+    const std::int64_t n = pa.n;
     detail::AccumulationPlan plan;
     plan.touched_only = opts.touched_only;
     plan.incremental = opts.incremental;
@@ -672,9 +673,18 @@ struct Engine::Impl {
       // Private fields cost threads x cells to clear and merge; atomics cost a
       // compare-and-swap per merged deposit (about 2 per particle). Prefer private fields
       // unless the mesh is much larger than the particle set (or touched_only asks for them).
+      // direct's fused pass, which needs them, costs a few ns per sphere where the general
+      // loop behind atomics costs tens, so it keeps them up to a sparser scene; from
+      // kBinnedCells its bins cost the cells once, whatever the thread count
+      // (docs/performance.md, "direct's fused pass against atomics").
       const double threads = arena->max_concurrency();
+      detail::AccumulationPlan fused = plan;
+      fused.strategy = Accumulation::privatised;
+      const bool fused_direct = threads > 1 && fuses_direct(pa, fused);
+      const double cells = double(mesh.cell_count());
+      const double cell_cost = fused_direct && cells >= double(detail::kBinnedCells) ? cells : cells * threads;
       plan.strategy = threads <= 1 || opts.touched_only ||
-                              double(mesh.cell_count()) * threads <= 8.0 * double(std::max<std::int64_t>(n, 1))
+                              cell_cost <= (fused_direct ? 64.0 : 8.0) * double(std::max<std::int64_t>(n, 1))
                           ? Accumulation::privatised
                           : Accumulation::atomic;
     }
@@ -698,7 +708,7 @@ struct Engine::Impl {
                   "orientation=given needs orientations (4n quaternions w, x, y, z); pass them or "
                   "set orientation=random");
 
-    detail::AccumulationPlan pl = plan(pa.n);
+    detail::AccumulationPlan pl = plan(pa);
     for (Scratch& sc : scratch) sc.reset_counters();
     const bool fused = fuses_direct(pa, pl);
     const Validation v = fused ? fused_direct(pa, pl) : validate(pa);

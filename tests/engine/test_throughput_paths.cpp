@@ -370,6 +370,23 @@ TEST(BinnedDirect, EqualsABruteForceSumAndTheGeneralLoop) {
   Engine small(grid(h, n, n, n - 1));
   run(small, p, "method=direct outside=drop threads=2");
   EXPECT_EQ(small.last_report_value("binned_regions"), 0.0);
+  // A sparse scene (a sphere per 32 cells) keeps the fused pass and its bins under
+  // accumulation=auto, where the general loop's atomics would cost more; one per 128
+  // cells takes the atomics.
+  Particles sparse, sparser;
+  for (std::size_t i = 0; i < 8192; ++i) {
+    sparse.add(p.centres[3 * i], p.centres[3 * i + 1], p.centres[3 * i + 2], p.radii[i]);
+    if (i < 2048) sparser.add(p.centres[3 * i], p.centres[3 * i + 1], p.centres[3 * i + 2], p.radii[i]);
+  }
+  Engine e(grid(h, n, n, n));
+  const std::vector<double> a = run(e, sparse, "method=direct outside=drop threads=2");
+  EXPECT_EQ(e.last_report_value("fused_pass"), 1.0);
+  EXPECT_GT(e.last_report_value("binned_regions"), 0.0);
+  Engine general(grid(h, n, n, n));
+  expect_same_field(a, run(general, sparse, "method=direct outside=drop threads=2 accumulation=atomic"),
+                    1e-15 * sparse.volume(), "sparse");
+  run(e, sparser, "method=direct outside=drop threads=2");
+  EXPECT_EQ(e.last_report_value("fused_pass"), 0.0);
 }
 
 TEST(BinnedDirect, ABadParticleLeavesTheOutputAndTheNextComputeIntact) {
