@@ -446,40 +446,40 @@ struct Engine::Impl {
     // The pass, with add(cell, volume) and add_extra(cell, volume) for this thread's deposits.
     auto pass = [&](const tbb::blocked_range<std::int64_t>& r, Validation& a, detail::CentreGrid g, auto&& add,
                     auto&& add_extra) {
-        Scratch& s = scratch.local();
-        for (int d = 0; d < 3; ++d) {
-          g.origin[d] = grid.origin()[d];
-          g.inv_spacing[d] = 1.0 / grid.spacing()[d];
-          g.cells[d] = double(grid.cells()[d]);
+      Scratch& s = scratch.local();
+      for (int d = 0; d < 3; ++d) {
+        g.origin[d] = grid.origin()[d];
+        g.inv_spacing[d] = 1.0 / grid.spacing()[d];
+        g.cells[d] = double(grid.cells()[d]);
+      }
+      g.strides[0] = static_cast<std::int32_t>(grid.cells()[0]);
+      g.strides[1] = static_cast<std::int32_t>(grid.cells()[0] * grid.cells()[1]);
+      g.cell_map = map;
+      if (on_lattice) s.lattice_particles += r.size();
+      auto by_driver = [&](std::int64_t p) {
+        s.deposits.clear();
+        detail::direct_particle(ctx, s, particle(pa, p));
+        for (const Deposit& d : s.deposits) add_extra(map ? map[d.cell] : d.cell, d.volume);
+      };
+      std::int64_t left[kChunk];
+      for (std::int64_t first = r.begin(); first < r.end(); first += kChunk) {
+        const std::int64_t count = std::min(kChunk, r.end() - first);
+        if (!periodic) {
+          const std::int64_t nleft = detail::deposit_sphere_chunk(pa, first, count, bounds, g, a, left);
+          s.sub_elements += count - nleft;  // the driver counts the others
+          for (std::int64_t i = 0; i < nleft; ++i) by_driver(left[i]);
+          continue;
         }
-        g.strides[0] = static_cast<std::int32_t>(grid.cells()[0]);
-        g.strides[1] = static_cast<std::int32_t>(grid.cells()[0] * grid.cells()[1]);
-        g.cell_map = map;
-        if (on_lattice) s.lattice_particles += r.size();
-        auto by_driver = [&](std::int64_t p) {
-          s.deposits.clear();
-          detail::direct_particle(ctx, s, particle(pa, p));
-          for (const Deposit& d : s.deposits) add_extra(map ? map[d.cell] : d.cell, d.volume);
-        };
-        std::int64_t left[kChunk];
-        for (std::int64_t first = r.begin(); first < r.end(); first += kChunk) {
-          const std::int64_t count = std::min(kChunk, r.end() - first);
-          if (!periodic) {
-            const std::int64_t nleft = detail::deposit_sphere_chunk(pa, first, count, bounds, g, a, left);
-            s.sub_elements += count - nleft;  // the driver counts the others
-            for (std::int64_t i = 0; i < nleft; ++i) by_driver(left[i]);
-            continue;
-          }
-          if (!detail::check_sphere_chunk(pa, first, count, bounds, a)) continue;  // the compute fails
-          for (std::int64_t p = first; p < first + count; ++p) {
-            if (const std::int64_t cell = grid.locate(mesh.wrap(pa.centre(p))); cell >= 0) {
-              add(cell, sphere_volume(pa.radius(p)));
-              ++s.sub_elements;
-            } else {
-              by_driver(p);
-            }
+        if (!detail::check_sphere_chunk(pa, first, count, bounds, a)) continue;  // the compute fails
+        for (std::int64_t p = first; p < first + count; ++p) {
+          if (const std::int64_t cell = grid.locate(mesh.wrap(pa.centre(p))); cell >= 0) {
+            add(cell, sphere_volume(pa.radius(p)));
+            ++s.sub_elements;
+          } else {
+            by_driver(p);
           }
         }
+      }
     };
     // Bins where several threads would each fill and merge a large private field (one
     // thread's field is cheaper than bins: cell_bins.hpp).
