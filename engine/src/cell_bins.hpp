@@ -105,15 +105,10 @@ class CellBins {
   /// Adds region r's binned deposits into field (indexed by cell), slot by slot, each in
   /// the order written.
   void add_region(std::int32_t r, double* field) const {
-    constexpr std::int32_t kAhead = 16;  // the adds' cache misses, requested this far ahead
     for (int s = 0; s < slots_; ++s)
       for (std::int32_t p = std::int32_t(s) * regions_ + r; p >= 0; p = pages_[p].next) {
         const BinPage& page = pages_[p];
-        const std::int32_t n = page.count;
-        for (std::int32_t i = 0; i < n; ++i) {
-          if (i + kAhead < n) __builtin_prefetch(field + page.cells[i + kAhead], 1);
-          field[page.cells[i]] += page.volumes[i];
-        }
+        for (std::int32_t i = 0; i < page.count; ++i) field[page.cells[i]] += page.volumes[i];
       }
   }
   /// The deposits kept aside, per slot.
