@@ -45,6 +45,8 @@
 // rounding of a reaching face's plane takes the general formula.
 #include "vfe/kernels/sphere_polyhedron_overlap.hpp"
 
+#include "ratio_angle.hpp"
+
 #include <Eigen/Geometry>
 
 #include <algorithm>
@@ -55,6 +57,9 @@
 
 namespace vfe::kernels {
 namespace {
+
+using detail::ratio_angle;
+using detail::upper_half_angle;
 
 /// With the winding number known, a centre nearer than kEdgeMargin times an edge's length
 /// (from the centre's foot) to the line of an edge the disc reaches takes the general
@@ -78,17 +83,18 @@ double right_triangle_cone(const FacePlane& pl, double d, double rho, double s) 
   if (sa == 0) return 0;
   const double h = pl.h;
   const double ell = std::sqrt(rho * rho + sa * sa);
-  const double omega = 2 * std::atan(d * sa / ((rho + h) * (ell + rho)));
+  const double omega = 2 * ratio_angle(d * sa, (rho + h) * (ell + rho));
   double v;
   if (pl.a2 <= d * d) {
-    const double alpha = std::atan2(sa, d);
+    const double alpha = ratio_angle(sa, d);
     v = h / 6 * alpha * pl.a2 + pl.r3 / 3 * (omega - alpha * pl.cap);
   } else if (ell <= pl.r) {
     v = h * d * sa / 6;
   } else {
     const double s_in = std::sqrt(pl.a2 - d * d);
-    const double omega_in = 2 * std::atan(d * s_in / ((rho + h) * (pl.r + rho)));
-    const double beyond = std::atan2(d * (sa - s_in), d * d + sa * s_in);  // alpha - atan2(s_in, d)
+    const double omega_in = 2 * ratio_angle(d * s_in, (rho + h) * (pl.r + rho));
+    // alpha - atan2(s_in, d); sa > s_in here (the ball's edge lies within the segment)
+    const double beyond = ratio_angle(d * std::max(sa - s_in, 0.0), d * d + sa * s_in);
     v = h / 6 * (d * s_in + beyond * pl.a2) + pl.r3 / 3 * (omega - omega_in - beyond * pl.cap);
   }
   return s < 0 ? -v : v;
@@ -103,11 +109,11 @@ double right_triangle_cone_in_disc(const FacePlane& pl, double d, double rho, do
   double v;
   if (rho * rho + sa * sa <= pl.r * pl.r) {
     const double ell = std::sqrt(rho * rho + sa * sa);
-    v = h * d * sa / 6 - pl.r3 / 3 * 2 * std::atan(d * sa / ((rho + h) * (ell + rho)));
+    v = h * d * sa / 6 - pl.r3 / 3 * 2 * ratio_angle(d * sa, (rho + h) * (ell + rho));
   } else {
     const double s_in = std::sqrt(pl.a2 - d * d);
-    const double omega_in = 2 * std::atan(d * s_in / ((rho + h) * (pl.r + rho)));
-    const double beyond = std::atan2(d * (sa - s_in), d * d + sa * s_in);
+    const double omega_in = 2 * ratio_angle(d * s_in, (rho + h) * (pl.r + rho));
+    const double beyond = ratio_angle(d * std::max(sa - s_in, 0.0), d * d + sa * s_in);
     v = h * d * s_in / 6 - pl.r3 / 3 * omega_in - beyond * pl.cap_volume;
   }
   return s < 0 ? -v : v;
@@ -251,7 +257,7 @@ void add_face(const Vertex& vertex, std::int32_t begin, std::int32_t end, const 
     if (!known) {
       part = right_triangle_cone(pl, d, rho, sb) - right_triangle_cone(pl, d, rho, sa);
     } else if (pl.a2 <= d * d) {  // sectors only: the angle the edge spans, in one atan2
-      part = -std::atan2(d * (sb - sa), d * d + sa * sb) * pl.cap_volume;
+      part = -upper_half_angle(d * (sb - sa), d * d + sa * sb) * pl.cap_volume;
     } else {
       // The disc reaches the edge's line: its solid angle changes by O(1) within rho of
       // the line, so a centre near an edge (rho small against the edge's reach) would
