@@ -33,7 +33,7 @@ void Accumulator::abandon() {
     b.deposits.clear();
     b.moved.clear();
   }
-  pending_ = binned_ = false;
+  pending_ = false;
 }
 
 void Accumulator::clear_solid() {
@@ -324,7 +324,7 @@ void Accumulator::apply_incremental(tbb::task_arena& arena) {
 
 bool Accumulator::commit(tbb::task_arena& arena, CellPass* pass) {
   bool passed = false;
-  std::int32_t committed_regions = 0;
+  committed_regions_ = 0;
   const std::int64_t nblocks = static_cast<std::int64_t>(next_.size());
   moved_list_.clear();
   if (!plan_.fixed_point) fixed_valid_ = false;
@@ -360,9 +360,9 @@ bool Accumulator::commit(tbb::task_arena& arena, CellPass* pass) {
     solid_.swap(work_);
     moved_ = n_;
     kept_ = false;
-  } else if (binned_) {
+  } else if (plan_.binned) {
     apply_bins(arena, pass);
-    committed_regions = bins_.regions();
+    committed_regions_ = bins_.regions();
     passed = pass != nullptr;
     moved_ = n_;
     kept_ = false;
@@ -371,8 +371,7 @@ bool Accumulator::commit(tbb::task_arena& arena, CellPass* pass) {
     moved_ = n_;
     kept_ = false;
   }
-  pending_ = binned_ = false;
-  committed_regions_ = committed_regions;
+  pending_ = false;
   return passed;
 }
 

@@ -66,6 +66,7 @@ struct AccumulationPlan {
   bool keep_deposits = false; ///< keep every particle's deposits (weights=1)
   bool fixed_point = false;   ///< deterministic=1: sum blocks in fixed point (needs blocks)
   int unit_exponent = 0;      ///< fixed_point: the unit 2^unit_exponent (fixed_unit_exponent)
+  bool binned = false;        ///< privatised by a fused pass into bins (deposit_binned), not private fields
   bool uses_blocks() const {
     return strategy == Accumulation::sorted || incremental || keep_deposits || fixed_point;
   }
@@ -140,8 +141,8 @@ class Accumulator {
       throw;
     }
   }
-  /// Phase 1 as deposit_private, into bins by regions of cells (cell_bins.hpp) for a
-  /// field of kBinnedCells or more: pass(thread_bins) where thread_bins() gives this
+  /// Phase 1 as deposit_private, into bins by regions of cells (cell_bins.hpp), for a plan
+  /// with `binned`: pass(thread_bins) where thread_bins() gives this
   /// thread's BinWriter, add() for at most n deposits of cells below cell_count(), extra()
   /// for others (the dropped slot: cell_count()). Runs in the arena.
   template <class Pass>
@@ -149,7 +150,6 @@ class Accumulator {
     plan_ = plan;
     n_ = n;
     pending_ = true;
-    binned_ = true;
     bins_.start(cells_, n, arena.max_concurrency());
     try {
       return pass([this] { return bins_.writer(tbb::this_task_arena::current_thread_index()); });
@@ -202,8 +202,7 @@ class Accumulator {
   std::vector<double> work_;  // atomic: the field being computed (+1 slot: dropped)
   tbb::enumerable_thread_specific<PrivateField> private_;
   bool private_dirty_ = false;
-  CellBins bins_;        // deposit_binned's deposits
-  bool binned_ = false;  // phase 1 filled bins_
+  CellBins bins_;  // deposit_binned's deposits (plan_.binned)
   std::int32_t committed_regions_ = 0;
 
   // Blocks: those of phase 1 (next_) and the committed ones (blocks_: incremental, weights).

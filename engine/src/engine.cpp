@@ -481,10 +481,7 @@ struct Engine::Impl {
         }
       }
     };
-    // Bins where several threads would each fill and merge a large private field (one
-    // thread's field is cheaper than bins: cell_bins.hpp).
-    if (opts.accumulation == Accumulation::automatic && arena->max_concurrency() > 1 &&
-        mesh.cell_count() >= detail::kBinnedCells)
+    if (pl.binned)
       return acc.deposit_binned(*arena, pl, pa.n, [&](auto&& thread_bins) {
         const Validation v = reduce_particles(pa.n, [&](const tbb::blocked_range<std::int64_t>& r, Validation& a) {
           detail::BinWriter bins = thread_bins();
@@ -677,16 +674,20 @@ struct Engine::Impl {
       // loop behind atomics costs tens, so it keeps them up to a sparser scene; from
       // kBinnedCells its bins cost the cells once, whatever the thread count
       // (docs/performance.md, "direct's fused pass against atomics").
+      // Bins where several threads would each fill and merge a large private field (one
+      // thread's field is cheaper than bins: cell_bins.hpp).
       const double threads = arena->max_concurrency();
       detail::AccumulationPlan fused = plan;
       fused.strategy = Accumulation::privatised;
       const bool fused_direct = threads > 1 && fuses_direct(pa, fused);
       const double cells = double(mesh.cell_count());
-      const double cell_cost = fused_direct && cells >= double(detail::kBinnedCells) ? cells : cells * threads;
+      const bool bins = fused_direct && cells >= double(detail::kBinnedCells);
       plan.strategy = threads <= 1 || opts.touched_only ||
-                              cell_cost <= (fused_direct ? 64.0 : 8.0) * double(std::max<std::int64_t>(n, 1))
+                              (bins ? cells : cells * threads) <=
+                                  (fused_direct ? 64.0 : 8.0) * double(std::max<std::int64_t>(n, 1))
                           ? Accumulation::privatised
                           : Accumulation::atomic;
+      plan.binned = bins && plan.strategy == Accumulation::privatised;
     }
     return plan;
   }
@@ -803,7 +804,6 @@ struct Engine::Impl {
     counted_particles = 0;
     for (const Scratch& sc : scratch) counted_particles += sc.counted;
     fused_pass = fused;  // validation and deposits in one pass
-    binned_regions = acc.binned_regions();
     ordered_blocks = arranged_blocks;
     if (log->should_log(spdlog::level::info))  // the note allocates: steady-state computes must not
       log->info("computed {} particles with {} on a {}{}: {} moved, {} sub-elements, {} on the fast path, {} outside",
@@ -1078,7 +1078,6 @@ struct Engine::Impl {
   // validation and deposits ran as one pass.
   std::int64_t counted_particles = 0;
   bool fused_pass = false;
-  std::int32_t binned_regions = 0;  ///< the last compute's regions of binned deposits (0: none)
   bool projected_counts = false;  ///< pmm's counts took the template's projections on the bank
   /// Particles of the last compute that the box lattice's grid path took.
   std::int64_t lattice_particles = 0;
@@ -1362,7 +1361,7 @@ double Engine::last_report_value(std::string_view key) const {
       {"overfull_volume", impl_->overfull_volume},
       {"counted_particles", double(impl_->counted_particles)},
       {"fused_pass", impl_->fused_pass ? 1.0 : 0.0},
-      {"binned_regions", double(impl_->have_field ? impl_->binned_regions : 0)},
+      {"binned_regions", double(impl_->have_field ? impl_->acc.binned_regions() : 0)},
       {"projected_counts", impl_->have_field && impl_->projected_counts ? 1.0 : 0.0},
       {"ordered_blocks", double(impl_->have_field ? impl_->ordered_blocks : 0)},
       {"lattice_cells", impl_->mesh.lattice() ? double(impl_->mesh.cell_count()) : 0.0},
