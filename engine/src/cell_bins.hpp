@@ -3,7 +3,8 @@
 // a region's bins into the field on one thread while that region is in the cache. Private
 // fields would cost every thread a field of random adds, then a merge that reads and
 // clears them all: on a field of a million cells that merge did not get faster with a
-// second thread. Bins cost 12 bytes per deposit, whatever the thread count.
+// second thread (docs/performance.md, "direct with two threads on large fields"). Bins
+// cost 12 bytes per deposit, whatever the thread count.
 #pragma once
 
 #include "methods/driver.hpp"
@@ -15,10 +16,10 @@
 
 namespace vfe::detail {
 
-/// Fields of at least this many cells take bins where a pass offers them (2 MB of
-/// doubles, twice a core's L2 cache here; at 2^18 cells bins and private fields were even
-/// on one thread, bins ahead on two, private fields ahead below).
-inline constexpr std::int64_t kBinnedCells = std::int64_t(1) << 18;
+/// Fields of at least this many cells take bins where a pass offers them: with two
+/// threads, direct's private fields were ahead up to 493039 cells and even at 585225,
+/// bins ahead from 728728 (docs/performance.md, "Where bins pay").
+inline constexpr std::int64_t kBinnedCells = 600000;
 
 /// Deposits of one thread and one region, filled in order; pages of a bin are chained.
 struct BinPage {

@@ -223,34 +223,34 @@ int main(void) {
     CHECK(vfe_compute_shapes(e, 2, ctr, sc, NULL, NULL, solid) == VFE_ERROR_INVALID_ARGUMENT, "NULL ids");
   }
 
-  /* direct with two threads on 64^3 cells: the deposits go through bins by regions of
+  /* direct with two threads on 85^3 cells: the deposits go through bins by regions of
    * cells (report fact binned_regions); every sphere lies inside, so the field holds their
    * volume, and each sphere's cell is the one holding its centre. */
   {
     const double h[3] = {1.0, 1.0, 1.0};
-    const int64_t n64[3] = {64, 64, 64};
+    const int64_t n85[3] = {85, 85, 85};
     const int64_t n = 70000;
     vfe_engine* big = NULL;
     double *ctr = malloc(3 * (size_t)n * sizeof(double)), *rad = malloc((size_t)n * sizeof(double));
-    double *field = malloc(64 * 64 * 64 * sizeof(double)), *brute = calloc(64 * 64 * 64, sizeof(double));
+    double *field = malloc(85 * 85 * 85 * sizeof(double)), *brute = calloc(85 * 85 * 85, sizeof(double));
     double regions = 0, worst = 0, sum = 0;
     uint64_t state = 12345;
     int64_t i, k;
     for (i = 0; i < n; ++i) {
       for (k = 0; k < 3; ++k) {
         state = state * 6364136223846793005ULL + 1442695040888963407ULL;
-        ctr[3 * i + k] = 0.5 + 63.0 * (double)(state >> 11) / 9007199254740992.0;
+        ctr[3 * i + k] = 0.5 + 84.0 * (double)(state >> 11) / 9007199254740992.0;
       }
       rad[i] = 0.1 + 0.2 * (double)(i % 7) / 7.0;
-      brute[(int64_t)ctr[3 * i] + 64 * ((int64_t)ctr[3 * i + 1] + 64 * (int64_t)ctr[3 * i + 2])] +=
+      brute[(int64_t)ctr[3 * i] + 85 * ((int64_t)ctr[3 * i + 1] + 85 * (int64_t)ctr[3 * i + 2])] +=
           4.0 / 3.0 * kPi * rad[i] * rad[i] * rad[i];
     }
-    CHECK(vfe_create_cartesian(origin, h, n64, &big) == VFE_OK, "64^3 grid: %s", vfe_last_error(NULL));
+    CHECK(vfe_create_cartesian(origin, h, n85, &big) == VFE_OK, "85^3 grid: %s", vfe_last_error(NULL));
     CHECK(vfe_configure(big, "method=direct threads=2") == VFE_OK, "configure: %s", vfe_last_error(big));
     CHECK(vfe_compute(big, n, ctr, rad, NULL, field) == VFE_OK, "binned compute: %s", vfe_last_error(big));
     CHECK(vfe_last_report_value(big, "binned_regions", &regions) == VFE_OK && regions >= 2, "binned regions %g",
           regions);
-    for (c = 0; c < 64 * 64 * 64; ++c) {
+    for (c = 0; c < 85 * 85 * 85; ++c) {
       sum += brute[c];
       if (fabs(field[c] - brute[c]) > worst) worst = fabs(field[c] - brute[c]);
     }

@@ -267,18 +267,20 @@ TEST(BoxLattice, EqualsTheGridOfTheSameCellsPermuted) {
   }
 }
 
-// direct with two threads on a lattice of 2^18 cells sorts its deposits into bins, by the
-// polyMesh's cells (here numbered in shuffled order): the grid of the same cells with its
-// field permuted, and the general polyMesh path where spheres reach outside (nearest).
+// direct with two threads on a lattice of 85^3 cells (above the engine's 600000) sorts its
+// deposits into bins, by the polyMesh's cells (here numbered in shuffled order): the grid of
+// the same cells with its field permuted, and the general polyMesh path where spheres reach
+// outside (nearest).
 TEST(BoxLattice, BinnedDirectTakesThePolyMeshNumbering) {
-  const int n = 64;
-  const vfe::PolyMesh block(vfe::test::block_mesh({vfe::test::nodes(n, 0, 16), vfe::test::nodes(n, 0, 16),
-                                                   vfe::test::nodes(n, 0, 16)}));
+  const int n = 85;
+  const double side = 0.25 * n;
+  const vfe::PolyMesh block(vfe::test::block_mesh({vfe::test::nodes(n, 0, side), vfe::test::nodes(n, 0, side),
+                                                   vfe::test::nodes(n, 0, side)}));
   const std::vector<std::int64_t> perm = shuffled(block.cell_count(), 10);
   const MeshArrays arrays(block, perm);
   vfe::Engine poly(arrays.view()), cartesian(vfe::test::grid(0.25, n, n, n));
   // Enough spheres that accumulation=auto takes per-thread sums, not atomics.
-  const Particles p = vfe::test::random_spheres(53, 70000, -0.5, 16.5, 0.02, 0.2);
+  const Particles p = vfe::test::random_spheres(53, 70000, -0.5, side + 0.5, 0.02, 0.2);
   const double tol = 1e-15 * p.volume();
   const std::vector<double> a = run(poly, p, "method=direct threads=2 outside=drop");
   EXPECT_GT(poly.last_report_value("binned_regions"), 0.0);

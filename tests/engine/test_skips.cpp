@@ -216,12 +216,13 @@ TEST(Skips, SteadyStateComputesAllocateNothing) {
                        {"method=pmm accumulation=private", "method=pmm accumulation=atomic",
                         "method=exact touched_only=1", "method=pmm incremental=1", "method=pmm deterministic=1",
                         "method=direct", "method=gaussian", "method=divided"});
-  // direct's bins (2^18 cells, two threads): a pool sized by the particle count.
-  const Particles many = random_spheres(8, 70000, 0.0, 16.0, 0.05, 0.2);
-  Engine binned(grid(0.25, 64, 64, 64));
+  // direct's bins (85^3 cells, above the engine's 600000, two threads): a pool sized by the
+  // particle count.
+  const Particles many = random_spheres(8, 70000, 0.0, 21.0, 0.05, 0.2);
+  Engine binned(grid(0.25, 85, 85, 85));
   run(binned, many, "method=direct threads=2");
   EXPECT_GT(binned.last_report_value("binned_regions"), 0.0);
-  expect_no_allocation(many, [] { return Engine(grid(0.25, 64, 64, 64)); }, {"method=direct"});
+  expect_no_allocation(many, [] { return Engine(grid(0.25, 85, 85, 85)); }, {"method=direct"});
   std::vector<double> nodes{0, 1, 2.5, 4, 5, 6, 7, 8, 9, 9.5, 10, 11, 12};
   expect_no_allocation(p, [&] { return Engine(RectilinearGridSpec{{nodes, nodes, nodes}}); },
                        {"method=pmm periodic=xz", "method=exact", "method=direct"});

@@ -304,14 +304,14 @@ TEST(FusedDirect, ABadParticleAnywhereFailsTheComputeAndLeavesTheOutputAlone) {
     }
 }
 
-// direct's fused pass with two threads on a grid of 2^18 cells sorts its deposits into
+// direct's fused pass with two threads on a grid of kBinnedCells cells sorts its deposits into
 // bins by regions of cells. The reference: each sphere's volume added to the cell holding
 // its centre by floor, in one loop (outside=drop, no periodic axis), and the general loop
 // (accumulation=atomic) under every outside policy and with a periodic axis.
 TEST(BinnedDirect, EqualsABruteForceSumAndTheGeneralLoop) {
   const double h = 0.25;
-  const int n = 64;  // 64^3 cells: detail::kBinnedCells
-  ASSERT_EQ(std::int64_t(n) * n * n, detail::kBinnedCells);
+  const int n = static_cast<int>(std::ceil(std::cbrt(double(detail::kBinnedCells))));  // n^3 cells: bins
+  ASSERT_GE(std::int64_t(n) * n * n, detail::kBinnedCells);
   // Enough spheres that accumulation=auto takes per-thread sums, not atomics (8 per cell
   // and thread).
   const Particles p = random_spheres(51, 70000, -0.5, n * h + 0.5, 0.02, 0.2);
@@ -366,17 +366,18 @@ TEST(BinnedDirect, EqualsABruteForceSumAndTheGeneralLoop) {
     expect_same_field(run(e, p, o), brute, tol, o);
     EXPECT_EQ(e.last_report_value("binned_regions"), 0.0) << o;
   }
-  // Below 2^18 cells: no bins.
-  Engine small(grid(h, n, n, n - 1));
+  // Below kBinnedCells: no bins.
+  Engine small(grid(h, n, n, (detail::kBinnedCells - 1) / (std::int64_t(n) * n)));
   run(small, p, "method=direct outside=drop threads=2");
   EXPECT_EQ(small.last_report_value("binned_regions"), 0.0);
   // A sparse scene (a sphere per 32 cells) keeps the fused pass and its bins under
   // accumulation=auto, where the general loop's atomics would cost more; one per 128
   // cells takes the atomics.
   Particles sparse, sparser;
-  for (std::size_t i = 0; i < 8192; ++i) {
+  const std::size_t cells = brute.size();
+  for (std::size_t i = 0; i < cells / 32; ++i) {
     sparse.add(p.centres[3 * i], p.centres[3 * i + 1], p.centres[3 * i + 2], p.radii[i]);
-    if (i < 2048) sparser.add(p.centres[3 * i], p.centres[3 * i + 1], p.centres[3 * i + 2], p.radii[i]);
+    if (i < cells / 128) sparser.add(p.centres[3 * i], p.centres[3 * i + 1], p.centres[3 * i + 2], p.radii[i]);
   }
   Engine e(grid(h, n, n, n));
   const std::vector<double> a = run(e, sparse, "method=direct outside=drop threads=2");
@@ -390,8 +391,9 @@ TEST(BinnedDirect, EqualsABruteForceSumAndTheGeneralLoop) {
 }
 
 TEST(BinnedDirect, ABadParticleLeavesTheOutputAndTheNextComputeIntact) {
-  const Particles p = random_spheres(52, 70000, 0.0, 16.0, 0.05, 0.2);
-  Engine e(grid(0.25, 64, 64, 64));
+  const int n = static_cast<int>(std::ceil(std::cbrt(double(detail::kBinnedCells))));
+  const Particles p = random_spheres(52, 70000, 0.0, 0.25 * n, 0.05, 0.2);
+  Engine e(grid(0.25, n, n, n));
   const std::vector<double> good = run(e, p, "method=direct threads=2");
   ASSERT_GT(e.last_report_value("binned_regions"), 0.0);
   Particles bad = p;

@@ -176,7 +176,7 @@ VFE_API vfe_status vfe_last_report(const vfe_engine* e, vfe_report* out);
  *  "counted_particles" (pmm: particles whose sub-elements were counted per octant of a window
  *  of at most 2 x 2 x 2 cells instead of located one by one; the cells are the same),
  *  "fused_pass" (1 when validation and deposits ran as one pass over the particles),
- *  "binned_regions" (that pass with several threads on a mesh of 2^18 cells or more: the
+ *  "binned_regions" (that pass with several threads on a mesh of 600000 cells or more: the
  *  regions of cells its deposits were sorted into and then added region by region; 0 when
  *  they went to per-thread fields),
  *  "ordered_blocks" (the slabs of the field the spheres were computed in, option
