@@ -294,28 +294,52 @@ void locate_pass(tbb::task_arena& arena, const BenchScene& s, const vfe::Cartesi
   });
 }
 
-/// The limits of one (scene, grid, threads), each the median of `repeats` after a warm-up.
-BenchLimit measure_limits(tbb::task_arena& arena, const BenchScene& scene, const vfe::CartesianGridSpec& grid,
-                          const TemplateChoice& choice, std::vector<double>& field, int repeats) {
-  BenchLimit limit;
-  limit.cells = static_cast<std::int64_t>(field.size());
-  limit.bandwidth_bytes = static_cast<std::int64_t>(sizeof(double)) * (4 * scene.n + limit.cells);
-  double sum = bandwidth_pass(arena, scene, field);
-  limit.bandwidth_ms = time_calls(repeats, [&] { sum += bandwidth_pass(arena, scene, field); }).median_ms;
+/// The limits of one (scene, grid) for each thread count (an arena each), each the median
+/// of `repeats` after a warm-up. A limit's thread counts take turns within each round
+/// (time_rounds), and its speed-up is the median of the rounds' ratios to one thread.
+std::vector<BenchLimit> measure_limits(std::vector<std::unique_ptr<tbb::task_arena>>& arenas,
+                                       const std::vector<int>& threads, const BenchScene& scene,
+                                       const vfe::CartesianGridSpec& grid, const TemplateChoice& choice,
+                                       std::vector<double>& field, int repeats) {
+  const std::size_t nt = arenas.size();
+  const auto one = std::find(threads.begin(), threads.end(), 1) - threads.begin();
+  std::vector<BenchLimit> limits(nt);
+  auto keep = [&](const std::vector<std::vector<double>>& ms, double BenchLimit::*time, double BenchLimit::*speedup) {
+    for (std::size_t k = 0; k < nt; ++k) {
+      limits[k].*time = median(ms[k]);
+      limits[k].*speedup = std::size_t(one) < nt && threads[k] != 1 ? median_ratio(ms[one], ms[k]) : kNaN;
+    }
+  };
+  double sum = 0;
+  for (auto& arena : arenas) sum += bandwidth_pass(*arena, scene, field);
+  keep(time_rounds(nt, repeats, [&](std::size_t k) { sum += bandwidth_pass(*arenas[k], scene, field); }),
+       &BenchLimit::bandwidth_ms, &BenchLimit::bandwidth_speedup);
   g_sink = sum;
-  tbb::enumerable_thread_specific<std::vector<double>> store_fields;
-  store_pass(arena, scene, grid, store_fields);
-  limit.store_ms = time_calls(repeats, [&] { store_pass(arena, scene, grid, store_fields); }).median_ms;
-  for (const std::vector<double>& f : store_fields) g_sink = f.empty() ? 0.0 : f[0];
-  tbb::enumerable_thread_specific<LocateScratch> scratch;
-  locate_pass<true>(arena, scene, grid, choice, scratch);
-  limit.scatter_ms = time_calls(repeats, [&] { locate_pass<true>(arena, scene, grid, choice, scratch); }).median_ms;
-  locate_pass<false>(arena, scene, grid, choice, scratch);
-  limit.locate_ms = time_calls(repeats, [&] { locate_pass<false>(arena, scene, grid, choice, scratch); }).median_ms;
-  for (const LocateScratch& local : scratch) g_sink = double(local.index_sum);
-  limit.locate_sub_elements = choice.sub_elements;
-  limit.locate_templates = static_cast<std::int64_t>(choice.templates.size());
-  return limit;
+  std::vector<tbb::enumerable_thread_specific<std::vector<double>>> store_fields(nt);
+  for (std::size_t k = 0; k < nt; ++k) store_pass(*arenas[k], scene, grid, store_fields[k]);
+  keep(time_rounds(nt, repeats, [&](std::size_t k) { store_pass(*arenas[k], scene, grid, store_fields[k]); }),
+       &BenchLimit::store_ms, &BenchLimit::store_speedup);
+  for (const auto& fields : store_fields)
+    for (const std::vector<double>& f : fields) g_sink = f.empty() ? 0.0 : f[0];
+  std::vector<tbb::enumerable_thread_specific<LocateScratch>> scratch(nt);
+  for (std::size_t k = 0; k < nt; ++k) locate_pass<true>(*arenas[k], scene, grid, choice, scratch[k]);
+  keep(time_rounds(nt, repeats,
+                   [&](std::size_t k) { locate_pass<true>(*arenas[k], scene, grid, choice, scratch[k]); }),
+       &BenchLimit::scatter_ms, &BenchLimit::scatter_speedup);
+  for (std::size_t k = 0; k < nt; ++k) locate_pass<false>(*arenas[k], scene, grid, choice, scratch[k]);
+  keep(time_rounds(nt, repeats,
+                   [&](std::size_t k) { locate_pass<false>(*arenas[k], scene, grid, choice, scratch[k]); }),
+       &BenchLimit::locate_ms, &BenchLimit::locate_speedup);
+  for (const auto& per_thread : scratch)
+    for (const LocateScratch& local : per_thread) g_sink = double(local.index_sum);
+  for (std::size_t k = 0; k < nt; ++k) {
+    limits[k].cells = static_cast<std::int64_t>(field.size());
+    limits[k].bandwidth_bytes = static_cast<std::int64_t>(sizeof(double)) * (4 * scene.n + limits[k].cells);
+    limits[k].threads = threads[k];
+    limits[k].locate_sub_elements = choice.sub_elements;
+    limits[k].locate_templates = static_cast<std::int64_t>(choice.templates.size());
+  }
+  return limits;
 }
 
 // --- reports ---------------------------------------------------------------------------
@@ -386,7 +410,11 @@ Record record_of(const BenchLimit& l) {
           {"locate_ms", l.locate_ms},
           {"locate_sub_elements", l.locate_sub_elements},
           {"locate_sub_elements_per_s", locate_rate},
-          {"locate_templates", l.locate_templates}};
+          {"locate_templates", l.locate_templates},
+          {"bandwidth_speedup", l.bandwidth_speedup},
+          {"store_speedup", l.store_speedup},
+          {"scatter_speedup", l.scatter_speedup},
+          {"locate_speedup", l.locate_speedup}};
 }
 
 std::string csv_value(const Value& v) {
@@ -645,126 +673,136 @@ BenchOutcome run_bench(const BenchCommand& c) {
       const TemplateChoice choice = c.limits ? choose_templates(probe, scene, h) : TemplateChoice{};
       std::vector<double> field(static_cast<std::size_t>(ncells), 0.0);  // the host's output, touched
 
-      for (const int t : threads) {
-        tbb::task_arena arena(t);
-        BenchLimit limit;
+      // Every thread count's limits and engines are timed in turn within each round, so that
+      // the speed-ups are ratios of times taken moments apart.
+      std::vector<std::unique_ptr<tbb::task_arena>> arenas;
+      for (const int t : threads) arenas.push_back(std::make_unique<tbb::task_arena>(t));
+      const auto one = static_cast<std::size_t>(std::find(threads.begin(), threads.end(), 1) - threads.begin());
+      std::vector<BenchLimit> limits(threads.size());
+      for (std::size_t k = 0; k < threads.size(); ++k) {
+        BenchLimit& limit = limits[k];
+        limit.threads = threads[k];
         limit.bandwidth_ms = limit.store_ms = limit.scatter_ms = limit.locate_ms = kNaN;
-        if (c.limits) {
-          limit = measure_limits(arena, scene, grid, choice, field, c.repeats);
+      }
+      if (c.limits) {
+        limits = measure_limits(arenas, threads, scene, grid, choice, field, c.repeats);
+        for (BenchLimit& limit : limits) {
           limit.particles = n;
           limit.chi = chi;
-          limit.threads = t;
           out.limits.push_back(limit);
           log->info("limits, {} thread(s): bandwidth {:.3f} ms, store {:.3f} ms, scatter {:.3f} ms, locate {:.3f} ms "
                     "({} template sizes)",
-                    t, limit.bandwidth_ms, limit.store_ms, limit.scatter_ms, limit.locate_ms, limit.locate_templates);
+                    limit.threads, limit.bandwidth_ms, limit.store_ms, limit.scatter_ms, limit.locate_ms,
+                    limit.locate_templates);
           if (c.table) {
+            const int t = limit.threads;
             const double subel = double(limit.locate_sub_elements);
-            print_line(*c.table, n, chi, "(bw)", t, ncells, limit.bandwidth_ms, kNaN, kNaN, kNaN, kNaN, kNaN, kNaN,
-                       kNaN, kNaN);
-            print_line(*c.table, n, chi, "(store)", t, ncells, limit.store_ms, double(n), kNaN, kNaN, kNaN, kNaN, kNaN,
-                       kNaN, kNaN);
-            print_line(*c.table, n, chi, "(scatter)", t, ncells, limit.scatter_ms, subel, kNaN, kNaN, kNaN, kNaN, kNaN,
-                       kNaN, kNaN);
-            print_line(*c.table, n, chi, "(locate)", t, ncells, limit.locate_ms, subel, kNaN, kNaN, kNaN, kNaN, kNaN,
-                       kNaN, kNaN);
+            print_line(*c.table, n, chi, "(bw)", t, ncells, limit.bandwidth_ms, kNaN, kNaN, kNaN,
+                       limit.bandwidth_speedup, kNaN, kNaN, kNaN, kNaN);
+            print_line(*c.table, n, chi, "(store)", t, ncells, limit.store_ms, double(n), kNaN, kNaN,
+                       limit.store_speedup, kNaN, kNaN, kNaN, kNaN);
+            print_line(*c.table, n, chi, "(scatter)", t, ncells, limit.scatter_ms, subel, kNaN, kNaN,
+                       limit.scatter_speedup, kNaN, kNaN, kNaN, kNaN);
+            print_line(*c.table, n, chi, "(locate)", t, ncells, limit.locate_ms, subel, kNaN, kNaN,
+                       limit.locate_speedup, kNaN, kNaN, kNaN, kNaN);
           }
         }
+      }
 
-        for (const std::string& method : methods) {
-          // One engine per particle order, each created and warmed up in turn (its memory
-          // measured alone), then timed alternately so the machine's load falls on all alike.
-          struct Timed {
-            std::unique_ptr<vfe::Engine> engine;
-            std::int64_t before_engine = -1, after_engine = -1, before_compute = -1, after_compute = -1;
-            vfe::Report rep{};
-            std::vector<double> ms;
-          };
-          std::vector<Timed> timed(orders.size());
-          for (std::size_t k = 0; k < orders.size(); ++k) {
-            Timed& e = timed[k];
-            return_free_memory();
-            e.before_engine = resident_bytes();
-            e.engine = std::make_unique<vfe::Engine>(grid);
-            e.after_engine = resident_bytes();
-            e.engine->configure(common + " method=" + method + " threads=" + std::to_string(t) +
-                                (orders[k].empty() ? "" : " particle_order=" + orders[k]));
-            return_free_memory();
-            e.before_compute = resident_bytes();
-            const auto t_warm = Clock::now();
-            e.engine->compute(view, field);
-            const double warm_ms = ms_since(t_warm);
-            e.after_compute = resident_bytes();
-            if (warm_ms > 5000)
-              log->info("{}, {} thread(s): warm-up took {:.1f} s; {} timed computes follow", method, t, warm_ms * 1e-3,
-                        c.repeats);
-            e.rep = e.engine->last_report();
-            warn_overfull(*log, scene.name + " chi=" + printf_number("%.3g", chi), method, overfull_facts(*e.engine),
-                          e.rep.particle_volume);
-          }
-          for (int i = 0; i < c.repeats; ++i)
-            for (Timed& e : timed) e.ms.push_back(time_calls(1, [&] { e.engine->compute(view, field); }).median_ms);
-          for (std::size_t k = 0; k < orders.size(); ++k) {
-            BenchRow row;
-            const vfe::Engine& engine = *timed[k].engine;
-            const vfe::Report& rep = timed[k].rep;
-            const std::int64_t before_engine = timed[k].before_engine, after_engine = timed[k].after_engine;
-            const std::int64_t before_compute = timed[k].before_compute, after_compute = timed[k].after_compute;
-            const Timing timing{median(timed[k].ms), *std::min_element(timed[k].ms.begin(), timed[k].ms.end())};
-            const std::string label = orders.size() > 1 ? method + "/" + orders[k] : method;
-            row.particle_order = engine.option("particle_order");
-            row.ordered_blocks = std::int64_t(engine.last_report_value("ordered_blocks"));
-            const bool have_memory = before_engine >= 0 && before_compute >= 0;
-            row.scene = scene.name;
-            row.order = c.order;
-            row.dispersity = scene.dispersity;
-            row.method = method;
-            row.options = engine.options();
-            row.particles = n;
-            row.chi = chi;
-            row.cell_size = h;
-            row.solid_fraction = scene.solid_fraction;
-            row.grid = grid.cells;
-            row.cells = ncells;
-            row.threads = t;
-            row.repeats = c.repeats;
-            row.time_median_ms = timing.median_ms;
-            row.time_min_ms = timing.min_ms;
-            row.particles_per_s = double(n) / (timing.median_ms * 1e-3);
-            row.sub_elements = rep.sub_elements;
-            row.sub_elements_per_s = double(rep.sub_elements) / (timing.median_ms * 1e-3);
-            row.sub_elements_per_particle = double(rep.sub_elements) / double(n);
-            row.fast_path_particles = rep.fast_path_particles;
-            row.particle_grid_min = rep.particle_grid_min;
-            row.particle_grid_max = rep.particle_grid_max;
-            row.volume_error = std::abs(rep.deposited_volume + rep.dropped_volume - rep.particle_volume) /
-                               rep.particle_volume;
-            row.engine_bytes = have_memory ? after_engine - before_engine : -1;
-            row.compute_bytes = have_memory ? after_compute - before_compute : -1;
-            row.bytes_per_cell = have_memory ? double(row.engine_bytes) / double(ncells) : kNaN;
-            row.bytes_per_particle = have_memory ? double(row.compute_bytes) / double(n) : kNaN;
-            row.peak_rss_bytes = peak_resident_bytes();
-            row.speedup = kNaN;
-            for (const BenchRow& one : out.rows)
-              if (t != 1 && one.threads == 1 && one.particles == n && one.chi == chi && one.method == method &&
-                  one.particle_order == row.particle_order)
-                row.speedup = one.time_median_ms / row.time_median_ms;
-            row.bandwidth_ms = limit.bandwidth_ms;
-            row.store_ms = limit.store_ms;
-            row.scatter_ms = limit.scatter_ms;
-            row.locate_ms = limit.locate_ms;
-            row.x_bandwidth = row.time_median_ms / limit.bandwidth_ms;
-            row.x_store = row.time_median_ms / limit.store_ms;
-            row.x_scatter = row.time_median_ms / limit.scatter_ms;
-            row.x_locate = row.time_median_ms / limit.locate_ms;
-            out.rows.push_back(row);
-            log->info("[{}/{}] N = {}, chi = {}, {}, {} thread(s): {:.3f} ms per compute", out.rows.size(), total_rows,
-                      n, chi, label, t, row.time_median_ms);
-            if (c.table)
-              print_line(*c.table, n, chi, label, t, ncells, row.time_median_ms, double(row.sub_elements),
-                         row.bytes_per_particle, row.bytes_per_cell, row.speedup, row.x_bandwidth, row.x_store,
-                         row.x_scatter, row.x_locate);
-          }
+      for (const std::string& method : methods) {
+        // One engine per thread count and particle order, each created and warmed up in turn
+        // (its memory measured alone), then timed in rounds that take every engine once.
+        struct Timed {
+          std::unique_ptr<vfe::Engine> engine;
+          std::int64_t before_engine = -1, after_engine = -1, before_compute = -1, after_compute = -1;
+          vfe::Report rep{};
+        };
+        const std::size_t norders = orders.size();
+        std::vector<Timed> timed(threads.size() * norders);  // [thread count][order]
+        for (std::size_t i = 0; i < timed.size(); ++i) {
+          Timed& e = timed[i];
+          const int t = threads[i / norders];
+          const std::string& order = orders[i % norders];
+          return_free_memory();
+          e.before_engine = resident_bytes();
+          e.engine = std::make_unique<vfe::Engine>(grid);
+          e.after_engine = resident_bytes();
+          e.engine->configure(common + " method=" + method + " threads=" + std::to_string(t) +
+                              (order.empty() ? "" : " particle_order=" + order));
+          return_free_memory();
+          e.before_compute = resident_bytes();
+          const auto t_warm = Clock::now();
+          e.engine->compute(view, field);
+          const double warm_ms = ms_since(t_warm);
+          e.after_compute = resident_bytes();
+          if (warm_ms > 5000)
+            log->info("{}, {} thread(s): warm-up took {:.1f} s; {} timed computes follow", method, t, warm_ms * 1e-3,
+                      c.repeats);
+          e.rep = e.engine->last_report();
+          warn_overfull(*log, scene.name + " chi=" + printf_number("%.3g", chi), method, overfull_facts(*e.engine),
+                        e.rep.particle_volume);
+        }
+        const std::vector<std::vector<double>> ms =
+            time_rounds(timed.size(), c.repeats, [&](std::size_t i) { timed[i].engine->compute(view, field); });
+        for (std::size_t i = 0; i < timed.size(); ++i) {
+          const std::size_t k = i / norders;
+          const int t = threads[k];
+          const BenchLimit& limit = limits[k];
+          BenchRow row;
+          const vfe::Engine& engine = *timed[i].engine;
+          const vfe::Report& rep = timed[i].rep;
+          const std::int64_t before_engine = timed[i].before_engine, after_engine = timed[i].after_engine;
+          const std::int64_t before_compute = timed[i].before_compute, after_compute = timed[i].after_compute;
+          const Timing timing{median(ms[i]), *std::min_element(ms[i].begin(), ms[i].end())};
+          const std::string label = norders > 1 ? method + "/" + orders[i % norders] : method;
+          row.particle_order = engine.option("particle_order");
+          row.ordered_blocks = std::int64_t(engine.last_report_value("ordered_blocks"));
+          const bool have_memory = before_engine >= 0 && before_compute >= 0;
+          row.scene = scene.name;
+          row.order = c.order;
+          row.dispersity = scene.dispersity;
+          row.method = method;
+          row.options = engine.options();
+          row.particles = n;
+          row.chi = chi;
+          row.cell_size = h;
+          row.solid_fraction = scene.solid_fraction;
+          row.grid = grid.cells;
+          row.cells = ncells;
+          row.threads = t;
+          row.repeats = c.repeats;
+          row.time_median_ms = timing.median_ms;
+          row.time_min_ms = timing.min_ms;
+          row.particles_per_s = double(n) / (timing.median_ms * 1e-3);
+          row.sub_elements = rep.sub_elements;
+          row.sub_elements_per_s = double(rep.sub_elements) / (timing.median_ms * 1e-3);
+          row.sub_elements_per_particle = double(rep.sub_elements) / double(n);
+          row.fast_path_particles = rep.fast_path_particles;
+          row.particle_grid_min = rep.particle_grid_min;
+          row.particle_grid_max = rep.particle_grid_max;
+          row.volume_error = std::abs(rep.deposited_volume + rep.dropped_volume - rep.particle_volume) /
+                             rep.particle_volume;
+          row.engine_bytes = have_memory ? after_engine - before_engine : -1;
+          row.compute_bytes = have_memory ? after_compute - before_compute : -1;
+          row.bytes_per_cell = have_memory ? double(row.engine_bytes) / double(ncells) : kNaN;
+          row.bytes_per_particle = have_memory ? double(row.compute_bytes) / double(n) : kNaN;
+          row.peak_rss_bytes = peak_resident_bytes();
+          row.speedup = one < threads.size() && t != 1 ? median_ratio(ms[one * norders + i % norders], ms[i]) : kNaN;
+          row.bandwidth_ms = limit.bandwidth_ms;
+          row.store_ms = limit.store_ms;
+          row.scatter_ms = limit.scatter_ms;
+          row.locate_ms = limit.locate_ms;
+          row.x_bandwidth = row.time_median_ms / limit.bandwidth_ms;
+          row.x_store = row.time_median_ms / limit.store_ms;
+          row.x_scatter = row.time_median_ms / limit.scatter_ms;
+          row.x_locate = row.time_median_ms / limit.locate_ms;
+          out.rows.push_back(row);
+          log->info("[{}/{}] N = {}, chi = {}, {}, {} thread(s): {:.3f} ms per compute", out.rows.size(), total_rows,
+                    n, chi, label, t, row.time_median_ms);
+          if (c.table)
+            print_line(*c.table, n, chi, label, t, ncells, row.time_median_ms, double(row.sub_elements),
+                       row.bytes_per_particle, row.bytes_per_cell, row.speedup, row.x_bandwidth, row.x_store,
+                       row.x_scatter, row.x_locate);
         }
       }
     }
@@ -823,7 +861,10 @@ CliCommand register_bench(CLI::App& app) {
       ->delimiter(',');
   bench->add_option("--chi", args->bench_cmd.chi, "Cell size / mean diameter, a list (default 2; e.g. 0.5,1,2,4)")
       ->delimiter(',');
-  bench->add_option("-t,--threads", args->bench_cmd.threads, "Thread counts, a list (default 1,2; 0 = all)")->delimiter(',');
+  bench->add_option("-t,--threads", args->bench_cmd.threads,
+                    "Thread counts, a list (default 1,2; 0 = all): one engine each, timed in turn; a speed-up is the "
+                    "median of the ratios within a round")
+      ->delimiter(',');
   bench->add_option("--method", args->bench_cmd.methods, "Engine methods, a list (default direct,pmm,exact), or all")->delimiter(',');
   bench->add_option("--particle-grid", args->bench_cmd.particle_grid, "pmm's particle_grid: auto or a count")
       ->capture_default_str();

@@ -82,7 +82,9 @@ struct BenchRow {
   double bytes_per_cell = 0;      ///< engine_bytes / cells
   double bytes_per_particle = 0;  ///< compute_bytes / particles
   std::int64_t peak_rss_bytes = 0;  ///< of the process so far
-  double speedup = 0;  ///< 1-thread time / this time; NaN without a 1-thread row
+  /// The median over the timed rounds of the 1-thread engine's time / this one's, the two
+  /// timed in turn within each round; NaN for a 1-thread row or without one.
+  double speedup = 0;
   /// The limits at the same (scene, N, chi, threads) and time_median_ms as a multiple of each.
   double bandwidth_ms = 0, store_ms = 0, scatter_ms = 0, locate_ms = 0;
   double x_bandwidth = 0, x_store = 0, x_scatter = 0, x_locate = 0;
@@ -103,6 +105,10 @@ struct BenchLimit {
   double scatter_ms = 0, locate_ms = 0;
   std::int64_t locate_sub_elements = 0;
   std::int64_t locate_templates = 0;  ///< distinct template sizes the scene needs
+  /// Each limit's 1-thread time / this one's, the median of ratios within a round (as
+  /// BenchRow::speedup); NaN for one thread or without a 1-thread count. The control for
+  /// the methods' speed-ups: what the machine gives a loop with no serial part.
+  double bandwidth_speedup = 0, store_speedup = 0, scatter_speedup = 0, locate_speedup = 0;
 };
 
 struct BenchOutcome {

@@ -3,6 +3,8 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstddef>
+#include <limits>
 #include <vector>
 
 namespace vfe::apps {
@@ -36,6 +38,28 @@ Timing time_calls(int repeats, F&& f) {
     ms.push_back(ms_since(t0));
   }
   return {median(ms), *std::min_element(ms.begin(), ms.end())};
+}
+
+/// `rounds` (>= 1) rounds, each timing f(k) once for every k in [0, count) in turn, so
+/// that a change in the machine's load falls on every k alike; ms[k][round].
+template <class F>
+std::vector<std::vector<double>> time_rounds(std::size_t count, int rounds, F&& f) {
+  std::vector<std::vector<double>> ms(count);
+  for (int i = 0; i < rounds; ++i)
+    for (std::size_t k = 0; k < count; ++k) {
+      const auto t0 = Clock::now();
+      f(k);
+      ms[k].push_back(ms_since(t0));
+    }
+  return ms;
+}
+
+/// The median over the rounds of base[i] / ms[i] (a ratio taken within each round of
+/// time_rounds); NaN for no rounds.
+inline double median_ratio(const std::vector<double>& base, const std::vector<double>& ms) {
+  std::vector<double> ratio;
+  for (std::size_t i = 0; i < base.size() && i < ms.size(); ++i) ratio.push_back(base[i] / ms[i]);
+  return ratio.empty() ? std::numeric_limits<double>::quiet_NaN() : median(ratio);
 }
 
 }  // namespace vfe::apps

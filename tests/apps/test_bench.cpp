@@ -2,6 +2,7 @@
 // conservation, reports), and errors that name the bad argument.
 #include "bench_cmd.hpp"
 #include "test_util.hpp"
+#include "timing.hpp"
 
 #include <vfe/engine.hpp>
 #include <vfe/vfe.h>
@@ -186,6 +187,65 @@ TEST(Bench, ParticleOrdersAreTimedSideBySide) {
   const BenchOutcome alone = run_bench(c);
   ASSERT_EQ(alone.rows.size(), 2u);
   EXPECT_EQ(alone.rows[0].particle_order, "blocked");
+}
+
+TEST(BenchTiming, RoundsTakeEveryEngineInTurnAndRatiosArePaired) {
+  std::vector<std::size_t> calls;
+  const auto ms = time_rounds(3, 4, [&](std::size_t k) { calls.push_back(k); });
+  EXPECT_EQ(calls, (std::vector<std::size_t>{0, 1, 2, 0, 1, 2, 0, 1, 2, 0, 1, 2}));
+  ASSERT_EQ(ms.size(), 3u);
+  for (const auto& m : ms) EXPECT_EQ(m.size(), 4u);
+  // The ratio is taken within each round: a slow round (a busy machine) slows both engines
+  // and leaves its ratio as it is, where the ratio of the medians would not be 2.
+  const std::vector<double> one = {10, 10, 40, 40, 40}, two = {5, 5, 20, 20, 20};
+  EXPECT_EQ(median_ratio(one, two), 2.0);
+  EXPECT_EQ(median_ratio({10, 30, 20}, {10, 10, 10}), 2.0);
+  EXPECT_EQ(median_ratio({40, 10, 10}, {10, 10, 20}), 1.0);  // pairs (4, 1, 0.5), not medians (10 / 10)
+  EXPECT_TRUE(std::isnan(median_ratio({}, {})));
+}
+
+TEST(Bench, ThreadCountsAreTimedSideBySideWithPairedSpeedups) {
+  test::TempDir dir;
+  BenchCommand c = tiny_command(dir / "bench");
+  c.chi = {2};
+  c.methods = {"direct", "pmm"};
+  c.threads = {1, 2};
+  c.repeats = 3;
+  const BenchOutcome out = run_bench(c);
+  ASSERT_EQ(out.rows.size(), 4u);  // per method, one row per thread count
+  for (std::size_t i = 0; i < out.rows.size(); ++i) {
+    const BenchRow& r = out.rows[i];
+    SCOPED_TRACE(r.method + " " + std::to_string(r.threads));
+    EXPECT_EQ(r.method, i < 2 ? "direct" : "pmm");
+    EXPECT_EQ(r.threads, i % 2 ? 2 : 1);
+    EXPECT_NE(r.options.find("threads=" + std::to_string(r.threads)), std::string::npos);
+    EXPECT_LT(r.volume_error, 1e-12);
+    if (r.threads == 1) {
+      EXPECT_TRUE(std::isnan(r.speedup));
+    } else {
+      EXPECT_GT(r.speedup, 0);
+      EXPECT_TRUE(std::isfinite(r.speedup));
+    }
+  }
+  EXPECT_EQ(out.rows[0].sub_elements, out.rows[1].sub_elements);
+  ASSERT_EQ(out.limits.size(), 2u);
+  EXPECT_EQ(out.limits[0].threads, 1);
+  EXPECT_EQ(out.limits[1].threads, 2);
+  EXPECT_TRUE(std::isnan(out.limits[0].store_speedup));
+  for (double s : {out.limits[1].bandwidth_speedup, out.limits[1].store_speedup, out.limits[1].scatter_speedup,
+                   out.limits[1].locate_speedup}) {
+    EXPECT_GT(s, 0);
+    EXPECT_TRUE(std::isfinite(s));
+  }
+  for (const BenchRow& r : out.rows) EXPECT_EQ(r.store_ms, out.limits[r.threads - 1].store_ms);
+  EXPECT_NE(test::read_text(out.output / "limits.csv").find("store_speedup"), std::string::npos);
+  // Without a 1-thread count there is nothing to compare with.
+  c.threads = {2};
+  c.methods = {"direct"};
+  const BenchOutcome two = run_bench(c);
+  ASSERT_EQ(two.rows.size(), 1u);
+  EXPECT_TRUE(std::isnan(two.rows[0].speedup));
+  EXPECT_TRUE(std::isnan(two.limits[0].store_speedup));
 }
 
 TEST(Bench, AllIsEveryEngineMethod) {
