@@ -339,6 +339,12 @@ std::optional<double> sphere_polyhedron_overlap_located(const Eigen::Vector3d& c
   return overlap(centre, radius, vertices, face_offsets, face_vertices, centre_inside ? 1 : 0);
 }
 
+// Built for x86-64-v3 as well as the baseline, the loader picking the one the CPU runs; its
+// callees inlined (flatten) so that the whole face term takes the clone. Without
+// contracted multiply-adds both give the same bits.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(__SANITIZE_ADDRESS__)
+__attribute__((target_clones("arch=x86-64-v3", "default"), flatten))
+#endif
 std::optional<double> sphere_face_located_term(const Eigen::Vector3d& centre, double radius,
                                                std::span<const Eigen::Vector3d> polygon) {
   const auto n = static_cast<std::int32_t>(polygon.size());
