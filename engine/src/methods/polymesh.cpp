@@ -618,13 +618,16 @@ bool cached_cell_is_box(const PolyMesh& mesh, Scratch& s, std::int64_t c, Eigen:
   return true;
 }
 
-// Built for x86-64-v3 beside the baseline, with every callee inlined so that the walks and
-// the face tests take the clone (the same bits: no contracted multiply-adds).
+namespace {
+
+// polymesh_points, built for x86-64-v3 beside the baseline, with every callee inlined so
+// that the walks and the face tests take the clone (the same bits: no contracted
+// multiply-adds). Internal: a clone's resolver of an external function is exported.
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(__SANITIZE_ADDRESS__)
 __attribute__((target_clones("arch=x86-64-v3", "default"), flatten))
 #endif
-void polymesh_points(const PolyContext& ctx, Scratch& s, const Particle& p, const kernels::ParticleTemplate& t,
-                     const Eigen::Matrix3d& rotation, Outside policy, std::int64_t centre_cell) {
+void points_pass(const PolyContext& ctx, Scratch& s, const Particle& p, const kernels::ParticleTemplate& t,
+                 const Eigen::Matrix3d& rotation, Outside policy, std::int64_t centre_cell) {
   const PolyMesh& mesh = ctx.locator->mesh();
   const std::int64_t n = static_cast<std::int64_t>(t.size());
   s.count_grid(n);
@@ -714,6 +717,13 @@ void polymesh_points(const PolyContext& ctx, Scratch& s, const Particle& p, cons
     }
   }
   cells.finish();
+}
+
+}  // namespace
+
+void polymesh_points(const PolyContext& ctx, Scratch& s, const Particle& p, const kernels::ParticleTemplate& t,
+                     const Eigen::Matrix3d& rotation, Outside policy, std::int64_t centre_cell) {
+  points_pass(ctx, s, p, t, rotation, policy, centre_cell);
 }
 
 void polymesh_direct(const PolyContext& ctx, Scratch& s, const Particle& p) {
