@@ -371,6 +371,7 @@ Record record_of(const BenchRow& r) {
           {"repeats", std::int64_t{r.repeats}},
           {"time_median_ms", r.time_median_ms},
           {"time_min_ms", r.time_min_ms},
+          {"time_max_ms", r.time_max_ms},
           {"particles_per_s", r.particles_per_s},
           {"sub_elements", r.sub_elements},
           {"sub_elements_per_s", r.sub_elements_per_s},
@@ -385,6 +386,8 @@ Record record_of(const BenchRow& r) {
           {"bytes_per_particle", r.bytes_per_particle},
           {"peak_rss_bytes", r.peak_rss_bytes},
           {"speedup", r.speedup},
+          {"speedup_min", r.speedup_min},
+          {"speedup_max", r.speedup_max},
           {"bandwidth_ms", r.bandwidth_ms},
           {"store_ms", r.store_ms},
           {"scatter_ms", r.scatter_ms},
@@ -773,6 +776,7 @@ BenchOutcome run_bench(const BenchCommand& c) {
           row.repeats = c.repeats;
           row.time_median_ms = timing.median_ms;
           row.time_min_ms = timing.min_ms;
+          row.time_max_ms = *std::max_element(ms[i].begin(), ms[i].end());
           row.particles_per_s = double(n) / (timing.median_ms * 1e-3);
           row.sub_elements = rep.sub_elements;
           row.sub_elements_per_s = double(rep.sub_elements) / (timing.median_ms * 1e-3);
@@ -787,7 +791,12 @@ BenchOutcome run_bench(const BenchCommand& c) {
           row.bytes_per_cell = have_memory ? double(row.engine_bytes) / double(ncells) : kNaN;
           row.bytes_per_particle = have_memory ? double(row.compute_bytes) / double(n) : kNaN;
           row.peak_rss_bytes = peak_resident_bytes();
-          row.speedup = one < threads.size() && t != 1 ? median_ratio(ms[one * norders + i % norders], ms[i]) : kNaN;
+          const RoundRatio speedup = one < threads.size() && t != 1
+                                         ? round_ratio(ms[one * norders + i % norders], ms[i])
+                                         : RoundRatio{kNaN, kNaN, kNaN};
+          row.speedup = speedup.median;
+          row.speedup_min = speedup.min;
+          row.speedup_max = speedup.max;
           row.bandwidth_ms = limit.bandwidth_ms;
           row.store_ms = limit.store_ms;
           row.scatter_ms = limit.scatter_ms;

@@ -73,7 +73,7 @@ struct BenchRow {
   std::array<std::int64_t, 3> grid{0, 0, 0};
   std::int64_t cells = 0;
   int threads = 0, repeats = 0;
-  double time_median_ms = 0, time_min_ms = 0;
+  double time_median_ms = 0, time_min_ms = 0, time_max_ms = 0;
   double particles_per_s = 0, sub_elements_per_s = 0, sub_elements_per_particle = 0;
   std::int64_t sub_elements = 0, fast_path_particles = 0, particle_grid_min = 0, particle_grid_max = 0;
   double volume_error = 0;  ///< |deposited + dropped - particle volume| / particle volume
@@ -83,8 +83,9 @@ struct BenchRow {
   double bytes_per_particle = 0;  ///< compute_bytes / particles
   std::int64_t peak_rss_bytes = 0;  ///< of the process so far
   /// The median over the timed rounds of the 1-thread engine's time / this one's, the two
-  /// timed in turn within each round; NaN for a 1-thread row or without one.
-  double speedup = 0;
+  /// timed in turn within each round; NaN for a 1-thread row or without one. speedup_min
+  /// and speedup_max: the least and greatest of those ratios (the machine's noise).
+  double speedup = 0, speedup_min = 0, speedup_max = 0;
   /// The limits at the same (scene, N, chi, threads) and time_median_ms as a multiple of each.
   double bandwidth_ms = 0, store_ms = 0, scatter_ms = 0, locate_ms = 0;
   double x_bandwidth = 0, x_store = 0, x_scatter = 0, x_locate = 0;

@@ -54,12 +54,25 @@ std::vector<std::vector<double>> time_rounds(std::size_t count, int rounds, F&& 
   return ms;
 }
 
-/// The median over the rounds of base[i] / ms[i] (a ratio taken within each round of
-/// time_rounds); NaN for no rounds.
-inline double median_ratio(const std::vector<double>& base, const std::vector<double>& ms) {
+/// The ratios base[i] / ms[i] of the rounds of time_rounds (each taken within a round):
+/// their median, least and greatest; NaN for no rounds.
+struct RoundRatio {
+  double median, min, max;
+};
+inline RoundRatio round_ratio(const std::vector<double>& base, const std::vector<double>& ms) {
   std::vector<double> ratio;
   for (std::size_t i = 0; i < base.size() && i < ms.size(); ++i) ratio.push_back(base[i] / ms[i]);
-  return ratio.empty() ? std::numeric_limits<double>::quiet_NaN() : median(ratio);
+  if (ratio.empty()) {
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    return {nan, nan, nan};
+  }
+  const auto [lo, hi] = std::minmax_element(ratio.begin(), ratio.end());
+  return {median(ratio), *lo, *hi};
+}
+
+/// round_ratio's median.
+inline double median_ratio(const std::vector<double>& base, const std::vector<double>& ms) {
+  return round_ratio(base, ms).median;
 }
 
 }  // namespace vfe::apps

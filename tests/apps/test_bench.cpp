@@ -202,6 +202,10 @@ TEST(BenchTiming, RoundsTakeEveryEngineInTurnAndRatiosArePaired) {
   EXPECT_EQ(median_ratio({10, 30, 20}, {10, 10, 10}), 2.0);
   EXPECT_EQ(median_ratio({40, 10, 10}, {10, 10, 20}), 1.0);  // pairs (4, 1, 0.5), not medians (10 / 10)
   EXPECT_TRUE(std::isnan(median_ratio({}, {})));
+  const RoundRatio spread = round_ratio({40, 10, 10}, {10, 10, 20});
+  EXPECT_EQ(spread.min, 0.5);
+  EXPECT_EQ(spread.max, 4.0);
+  EXPECT_TRUE(std::isnan(round_ratio({}, {}).max));
 }
 
 TEST(Bench, ThreadCountsAreTimedSideBySideWithPairedSpeedups) {
@@ -220,11 +224,16 @@ TEST(Bench, ThreadCountsAreTimedSideBySideWithPairedSpeedups) {
     EXPECT_EQ(r.threads, i % 2 ? 2 : 1);
     EXPECT_NE(r.options.find("threads=" + std::to_string(r.threads)), std::string::npos);
     EXPECT_LT(r.volume_error, 1e-12);
+    EXPECT_LE(r.time_min_ms, r.time_median_ms);
+    EXPECT_LE(r.time_median_ms, r.time_max_ms);
     if (r.threads == 1) {
       EXPECT_TRUE(std::isnan(r.speedup));
+      EXPECT_TRUE(std::isnan(r.speedup_max));
     } else {
       EXPECT_GT(r.speedup, 0);
       EXPECT_TRUE(std::isfinite(r.speedup));
+      EXPECT_LE(r.speedup_min, r.speedup);
+      EXPECT_LE(r.speedup, r.speedup_max);
     }
   }
   EXPECT_EQ(out.rows[0].sub_elements, out.rows[1].sub_elements);
