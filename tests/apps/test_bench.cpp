@@ -195,14 +195,17 @@ TEST(BenchTiming, RoundsTakeEveryEngineInTurnAndRatiosArePaired) {
   EXPECT_EQ(calls, (std::vector<std::size_t>{0, 1, 2, 0, 1, 2, 0, 1, 2, 0, 1, 2}));
   ASSERT_EQ(ms.size(), 3u);
   for (const auto& m : ms) EXPECT_EQ(m.size(), 4u);
-  // The ratio is taken within each round: a slow round (a busy machine) slows both engines
-  // and leaves its ratio as it is, where the ratio of the medians would not be 2.
-  const std::vector<double> one = {10, 10, 40, 40, 40}, two = {5, 5, 20, 20, 20};
+  // The ratio is taken within each round. Round 3 is slow for both engines (a busy
+  // machine) and keeps its ratio, round 2 for one only: the median of the ratios (2, 0.5,
+  // 2) is 2, where the ratio of the medians (10 / 20) would be 0.5.
+  const std::vector<double> one = {10, 10, 40}, two = {5, 20, 20};
   EXPECT_EQ(median_ratio(one, two), 2.0);
+  EXPECT_EQ(median(one) / median(two), 0.5);
   EXPECT_EQ(median_ratio({10, 30, 20}, {10, 10, 10}), 2.0);
-  EXPECT_EQ(median_ratio({40, 10, 10}, {10, 10, 20}), 1.0);  // pairs (4, 1, 0.5), not medians (10 / 10)
+  EXPECT_EQ(median_ratio({10, 20, 30}, {10, 5, 60}), 1.0);  // the ratios (1, 4, 0.5), not the medians (20 / 10)
   EXPECT_TRUE(std::isnan(median_ratio({}, {})));
-  const RoundRatio spread = round_ratio({40, 10, 10}, {10, 10, 20});
+  const RoundRatio spread = round_ratio({10, 20, 30}, {10, 5, 60});
+  EXPECT_EQ(spread.median, 1.0);
   EXPECT_EQ(spread.min, 0.5);
   EXPECT_EQ(spread.max, 4.0);
   EXPECT_TRUE(std::isnan(round_ratio({}, {}).max));
