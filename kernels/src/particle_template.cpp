@@ -1,4 +1,5 @@
 #include <vfe/kernels/particle_template.hpp>
+#include <vfe/kernels/v3_clones.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -207,10 +208,8 @@ const float* banked_random_rotation_rows(std::uint64_t index, std::uint64_t seed
   return banked_rotation_rows_table() + 9 * rotation_bank_slot(index, seed);
 }
 
-// Built for AVX2 + FMA as well as the baseline; the loader picks the one the CPU runs.
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(__SANITIZE_ADDRESS__)
-__attribute__((target_clones("arch=x86-64-v3", "default")))
-#endif
+// Built for x86-64-v3 beside the baseline.
+VFE_V3_CLONES
 void locate_in_block(const ParticleTemplate& tmpl, const Eigen::Vector3d& base, const Eigen::Matrix3d& transform,
                      const std::int64_t m[3], std::int32_t* out) {
   const std::size_t n = tmpl.points.size();

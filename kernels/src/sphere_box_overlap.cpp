@@ -37,6 +37,7 @@
 // accurate to a few 1e-16 in absolute terms (relative accuracy degrades for overlaps far
 // below that level, which are then tiny in absolute terms).
 #include "vfe/kernels/sphere_box_overlap.hpp"
+#include "vfe/kernels/v3_clones.hpp"
 
 #include "ratio_angle.hpp"
 
@@ -226,10 +227,7 @@ inline double corner_from_wedges(double a, double b, double c, const Wedge& xy, 
 
 /// unit_ball_octants' wedges and corner when all three planes cut (v[3], v[5], v[6], v[7]).
 /// Out of line: inlined beside the one-wedge cases it makes the compiler spill.
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(__SANITIZE_ADDRESS__)
-__attribute__((target_clones("arch=x86-64-v3", "default")))
-#endif
-[[gnu::noinline]] void three_planes(const double t[3], double v[8]) {
+VFE_V3_CLONES [[gnu::noinline]] void three_planes(const double t[3], double v[8]) {
   const double a = t[0], b = t[1], c = t[2];
   Wedge xy = wedge_root(a, b), yz = wedge_root(b, c), zx = wedge_root(c, a);
   // wedge_terms' 9 angles, two at a time.
@@ -407,11 +405,8 @@ double unit_ball_orthant_volume(double x, double y, double z) {
   return std::clamp(v, 0.0, kUnitBallVolume);
 }
 
-// Built for x86-64-v3 beside the baseline, as three_planes (the same bits: no contracted
-// multiply-adds).
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(__SANITIZE_ADDRESS__)
-__attribute__((target_clones("arch=x86-64-v3", "default")))
-#endif
+// Built for x86-64-v3 beside the baseline, as three_planes.
+VFE_V3_CLONES
 void unit_ball_octants(double a, double b, double c, double volumes[8]) {
   // Each axis reflected so that its plane lies at t >= 0: the far side X' >= t is then the
   // smaller part, and v[m] below, the ball in the far sides of the axes in m (m = 0: the

@@ -44,6 +44,7 @@
 // it spans. w jumps where a face plane passes through the centre, so a centre within
 // rounding of a reaching face's plane takes the general formula.
 #include "vfe/kernels/sphere_polyhedron_overlap.hpp"
+#include "vfe/kernels/v3_clones.hpp"
 
 #include "ratio_angle.hpp"
 
@@ -339,12 +340,9 @@ std::optional<double> sphere_polyhedron_overlap_located(const Eigen::Vector3d& c
   return overlap(centre, radius, vertices, face_offsets, face_vertices, centre_inside ? 1 : 0);
 }
 
-// Built for x86-64-v3 as well as the baseline, the loader picking the one the CPU runs; its
-// callees inlined (flatten) so that the whole face term takes the clone. Without
-// contracted multiply-adds both give the same bits.
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(__SANITIZE_ADDRESS__)
-__attribute__((target_clones("arch=x86-64-v3", "default"), flatten))
-#endif
+// Built for x86-64-v3 beside the baseline, its callees inlined so that the whole face term
+// takes the build.
+VFE_V3_CLONES_FLAT
 std::optional<double> sphere_face_located_term(const Eigen::Vector3d& centre, double radius,
                                                std::span<const Eigen::Vector3d> polygon) {
   const auto n = static_cast<std::int32_t>(polygon.size());

@@ -4,6 +4,8 @@
 // gives; the fast path and outside policy that exact shares.
 #include "methods/polymesh.hpp"
 
+#include <vfe/kernels/v3_clones.hpp>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -621,11 +623,8 @@ bool cached_cell_is_box(const PolyMesh& mesh, Scratch& s, std::int64_t c, Eigen:
 namespace {
 
 // polymesh_points, built for x86-64-v3 beside the baseline, with every callee inlined so
-// that the walks and the face tests take the clone (the same bits: no contracted
-// multiply-adds). Internal: a clone's resolver of an external function is exported.
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(__SANITIZE_ADDRESS__)
-__attribute__((target_clones("arch=x86-64-v3", "default"), flatten))
-#endif
+// that the walks and the face tests take the build (internal: see v3_clones.hpp).
+VFE_V3_CLONES_FLAT
 void points_pass(const PolyContext& ctx, Scratch& s, const Particle& p, const kernels::ParticleTemplate& t,
                  const Eigen::Matrix3d& rotation, Outside policy, std::int64_t centre_cell) {
   const PolyMesh& mesh = ctx.locator->mesh();
