@@ -294,6 +294,18 @@ void locate_pass(tbb::task_arena& arena, const BenchScene& s, const vfe::Cartesi
   });
 }
 
+/// Index in `threads` of the one-thread count, or threads.size() for none.
+std::size_t one_thread_index(const std::vector<int>& threads) {
+  return static_cast<std::size_t>(std::find(threads.begin(), threads.end(), 1) - threads.begin());
+}
+
+/// The speed-up of timings `ms` of `threads` threads over the one-thread timings of the
+/// same rounds (round_ratio); NaN for a one-thread timing or without one (null).
+RoundRatio speedup_over(const std::vector<double>* one_thread, const std::vector<double>& ms, int threads) {
+  if (!one_thread || threads == 1) return {kNaN, kNaN, kNaN};
+  return round_ratio(*one_thread, ms);
+}
+
 /// The limits of one (scene, grid) for each thread count (an arena each), each the median
 /// of `repeats` after a warm-up. A limit's thread counts take turns within each round
 /// (time_rounds), and its speed-up is the median of the rounds' ratios to one thread.
@@ -302,12 +314,12 @@ std::vector<BenchLimit> measure_limits(std::vector<std::unique_ptr<tbb::task_are
                                        const vfe::CartesianGridSpec& grid, const TemplateChoice& choice,
                                        std::vector<double>& field, int repeats) {
   const std::size_t nt = arenas.size();
-  const auto one = std::find(threads.begin(), threads.end(), 1) - threads.begin();
+  const std::size_t one = one_thread_index(threads);
   std::vector<BenchLimit> limits(nt);
   auto keep = [&](const std::vector<std::vector<double>>& ms, double BenchLimit::*time, double BenchLimit::*speedup) {
     for (std::size_t k = 0; k < nt; ++k) {
       limits[k].*time = median(ms[k]);
-      limits[k].*speedup = std::size_t(one) < nt && threads[k] != 1 ? median_ratio(ms[one], ms[k]) : kNaN;
+      limits[k].*speedup = speedup_over(one < nt ? &ms[one] : nullptr, ms[k], threads[k]).median;
     }
   };
   double sum = 0;
@@ -680,7 +692,7 @@ BenchOutcome run_bench(const BenchCommand& c) {
       // the speed-ups are ratios of times taken moments apart.
       std::vector<std::unique_ptr<tbb::task_arena>> arenas;
       for (const int t : threads) arenas.push_back(std::make_unique<tbb::task_arena>(t));
-      const auto one = static_cast<std::size_t>(std::find(threads.begin(), threads.end(), 1) - threads.begin());
+      const std::size_t one = one_thread_index(threads);
       std::vector<BenchLimit> limits(threads.size());
       for (std::size_t k = 0; k < threads.size(); ++k) {
         BenchLimit& limit = limits[k];
@@ -756,7 +768,8 @@ BenchOutcome run_bench(const BenchCommand& c) {
           const vfe::Report& rep = timed[i].rep;
           const std::int64_t before_engine = timed[i].before_engine, after_engine = timed[i].after_engine;
           const std::int64_t before_compute = timed[i].before_compute, after_compute = timed[i].after_compute;
-          const Timing timing{median(ms[i]), *std::min_element(ms[i].begin(), ms[i].end())};
+          const double median_ms = median(ms[i]);
+          const auto [fastest, slowest] = std::minmax_element(ms[i].begin(), ms[i].end());
           const std::string label = norders > 1 ? method + "/" + orders[i % norders] : method;
           row.particle_order = engine.option("particle_order");
           row.ordered_blocks = std::int64_t(engine.last_report_value("ordered_blocks"));
@@ -774,12 +787,12 @@ BenchOutcome run_bench(const BenchCommand& c) {
           row.cells = ncells;
           row.threads = t;
           row.repeats = c.repeats;
-          row.time_median_ms = timing.median_ms;
-          row.time_min_ms = timing.min_ms;
-          row.time_max_ms = *std::max_element(ms[i].begin(), ms[i].end());
-          row.particles_per_s = double(n) / (timing.median_ms * 1e-3);
+          row.time_median_ms = median_ms;
+          row.time_min_ms = *fastest;
+          row.time_max_ms = *slowest;
+          row.particles_per_s = double(n) / (median_ms * 1e-3);
           row.sub_elements = rep.sub_elements;
-          row.sub_elements_per_s = double(rep.sub_elements) / (timing.median_ms * 1e-3);
+          row.sub_elements_per_s = double(rep.sub_elements) / (median_ms * 1e-3);
           row.sub_elements_per_particle = double(rep.sub_elements) / double(n);
           row.fast_path_particles = rep.fast_path_particles;
           row.particle_grid_min = rep.particle_grid_min;
@@ -791,9 +804,8 @@ BenchOutcome run_bench(const BenchCommand& c) {
           row.bytes_per_cell = have_memory ? double(row.engine_bytes) / double(ncells) : kNaN;
           row.bytes_per_particle = have_memory ? double(row.compute_bytes) / double(n) : kNaN;
           row.peak_rss_bytes = peak_resident_bytes();
-          const RoundRatio speedup = one < threads.size() && t != 1
-                                         ? round_ratio(ms[one * norders + i % norders], ms[i])
-                                         : RoundRatio{kNaN, kNaN, kNaN};
+          const RoundRatio speedup =
+              speedup_over(one < threads.size() ? &ms[one * norders + i % norders] : nullptr, ms[i], t);
           row.speedup = speedup.median;
           row.speedup_min = speedup.min;
           row.speedup_max = speedup.max;

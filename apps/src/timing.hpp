@@ -70,9 +70,4 @@ inline RoundRatio round_ratio(const std::vector<double>& base, const std::vector
   return {median(ratio), *lo, *hi};
 }
 
-/// round_ratio's median.
-inline double median_ratio(const std::vector<double>& base, const std::vector<double>& ms) {
-  return round_ratio(base, ms).median;
-}
-
 }  // namespace vfe::apps
