@@ -28,18 +28,6 @@ struct Timing {
   double median_ms = 0, min_ms = 0;
 };
 
-/// `repeats` (>= 1) timed calls of f (the caller has warmed it up).
-template <class F>
-Timing time_calls(int repeats, F&& f) {
-  std::vector<double> ms;
-  for (int i = 0; i < repeats; ++i) {
-    const auto t0 = Clock::now();
-    f();
-    ms.push_back(ms_since(t0));
-  }
-  return {median(ms), *std::min_element(ms.begin(), ms.end())};
-}
-
 /// `rounds` (>= 1) rounds, each timing f(k) once for every k in [0, count) in turn, so
 /// that a change in the machine's load falls on every k alike; ms[k][round].
 template <class F>
@@ -52,6 +40,13 @@ std::vector<std::vector<double>> time_rounds(std::size_t count, int rounds, F&& 
       ms[k].push_back(ms_since(t0));
     }
   return ms;
+}
+
+/// `repeats` (>= 1) timed calls of f (the caller has warmed it up).
+template <class F>
+Timing time_calls(int repeats, F&& f) {
+  const std::vector<double> ms = time_rounds(1, repeats, [&](std::size_t) { f(); })[0];
+  return {median(ms), *std::min_element(ms.begin(), ms.end())};
 }
 
 /// The ratios base[i] / ms[i] of the rounds of time_rounds (each taken within a round):
