@@ -67,6 +67,10 @@ using detail::upper_half_angle;
 /// formula: the result's error is about 1e-17 of the ball over that distance ratio.
 constexpr double kEdgeMargin2 = 1e-2 * 1e-2;
 
+/// Fans of more points than this take their triangles one by one (the shared data lives on
+/// the stack).
+constexpr std::int32_t kMostFanPoints = 32;
+
 /// What one face plane's edges share.
 struct FacePlane {
   double h;    ///< |height| of the plane above the centre, in (0, r)
@@ -157,13 +161,25 @@ struct FaceSums {
   bool unsure = false;        ///< winding known, centre within rounding of a reaching face's plane or edge line
 };
 
+/// An edge's unit direction and length (zero direction for a zero length).
+struct EdgeDirection {
+  Eigen::Vector3d t;
+  double length;
+};
+
+EdgeDirection edge_direction(const Eigen::Vector3d& edge) {
+  const double length = edge.norm();
+  return {length > 0 ? Eigen::Vector3d(edge / length) : Eigen::Vector3d::Zero(), length};
+}
+
 /// Adds face [begin, end) of vertex(k) (positions relative to the centre) to the sums:
 /// with the winding number known (`known`) its term of the located sum, else its cone and
 /// its part of the polyhedron's volume. `contained`: every vertex lies in the ball (only
-/// the volume is wanted).
-template <class Vertex>
-void add_face(const Vertex& vertex, std::int32_t begin, std::int32_t end, const Ball& ball, bool known,
-              bool contained, FaceSums& sums) {
+/// the volume is wanted). edge(k): the direction of the edge from vertex k to the next
+/// (a fan's triangles share their spokes' directions).
+template <class Vertex, class Edge>
+void add_face(const Vertex& vertex, const Edge& edge, std::int32_t begin, std::int32_t end, const Ball& ball,
+              bool known, bool contained, FaceSums& sums) {
   if (end - begin < 3) return;
   const double r = ball.r, r2 = ball.r2, r3 = ball.r3;
   // Whether the foot of the centre lies inside the face: winding number of the face
@@ -244,11 +260,11 @@ void add_face(const Vertex& vertex, std::int32_t begin, std::int32_t end, const 
   pl.cap_volume = (r - h) * (r - h) * (2 * r + h) / 6;
   double face_volume = 0;
   for (std::int32_t k = begin; k < end; ++k) {
-    const Eigen::Vector3d a = vertex(k) - foot;
-    const Eigen::Vector3d edge = vertex(k + 1 == end ? begin : k + 1) - foot - a;
-    const double length = edge.norm();
+    const EdgeDirection direction = edge(k);
+    const double length = direction.length;
     if (!(length > 0)) continue;
-    const Eigen::Vector3d t = edge / length;
+    const Eigen::Vector3d& t = direction.t;
+    const Eigen::Vector3d a = vertex(k) - foot;
     const double d_signed = normal.dot(a.cross(t));
     const double d = std::fabs(d_signed);
     if (d == 0) continue;  // p on the edge's line: a flat triangle
@@ -313,7 +329,9 @@ std::optional<double> overlap(const Eigen::Vector3d& centre, double radius,
   FaceSums sums;
   const std::size_t n_faces = face_offsets.size() - 1;
   for (std::size_t f = 0; f < n_faces; ++f) {
-    add_face(vertex, face_offsets[f], face_offsets[f + 1], b, known, contained, sums);
+    const std::int32_t begin = face_offsets[f], end = face_offsets[f + 1];
+    const auto edge = [&](std::int32_t k) { return edge_direction(vertex(k + 1 == end ? begin : k + 1) - vertex(k)); };
+    add_face(vertex, edge, begin, end, b, known, contained, sums);
     if (sums.unsure) return std::nullopt;
   }
   if (known) return sphere_located_overlap(r, winding == 1, sums.volume);
@@ -357,9 +375,65 @@ std::optional<double> sphere_face_located_term(const Eigen::Vector3d& centre, do
   const Ball b{radius, r2, r2 * radius,
                1e-12 * std::max({centre.cwiseAbs().maxCoeff(), lo.cwiseAbs().maxCoeff(), hi.cwiseAbs().maxCoeff()})};
   const auto vertex = [&](std::int32_t k) -> Eigen::Vector3d { return polygon[static_cast<std::size_t>(k)] - centre; };
+  const auto edge = [&](std::int32_t k) { return edge_direction(vertex(k + 1 == n ? 0 : k + 1) - vertex(k)); };
   FaceSums sums;
-  add_face(vertex, 0, n, b, true, false, sums);
+  add_face(vertex, edge, 0, n, b, true, false, sums);
   if (sums.unsure) return std::nullopt;
+  return sums.volume;
+}
+
+// Built for x86-64-v3 as the polygon's term is.
+VFE_V3_CLONES_FLAT
+std::optional<double> sphere_fan_located_term(const Eigen::Vector3d& centre, double radius, const Eigen::Vector3d& apex,
+                                              std::span<const Eigen::Vector3d> rim) {
+  const auto n = static_cast<std::int32_t>(rim.size());
+  if (!(radius > 0) || n < 2) return 0;
+  const double r2 = radius * radius;
+  // The fan lies in the box of its points: no triangle reaches the ball when the box misses it.
+  Eigen::Vector3d lo = apex, hi = apex;
+  for (const Eigen::Vector3d& v : rim) {
+    lo = lo.cwiseMin(v);
+    hi = hi.cwiseMax(v);
+  }
+  if ((centre.cwiseMax(lo).cwiseMin(hi) - centre).squaredNorm() >= r2) return 0;
+  if (n > kMostFanPoints) {  // rare: the triangles one by one
+    double sum = 0;
+    for (std::int32_t i = 0; i < n; ++i) {
+      const std::array<Eigen::Vector3d, 3> triangle{apex, rim[static_cast<std::size_t>(i)],
+                                                   rim[static_cast<std::size_t>(i + 1 == n ? 0 : i + 1)]};
+      const std::optional<double> term = sphere_face_located_term(centre, radius, triangle);
+      if (!term) return std::nullopt;
+      sum += *term;
+    }
+    return sum;
+  }
+  const Ball b{radius, r2, r2 * radius,
+               1e-12 * std::max({centre.cwiseAbs().maxCoeff(), lo.cwiseAbs().maxCoeff(), hi.cwiseAbs().maxCoeff()})};
+  // The points relative to the centre, and the directions of the spokes (apex to rim
+  // point) and of the rim's edges, each computed once: a spoke borders two triangles.
+  std::array<Eigen::Vector3d, kMostFanPoints> u;
+  std::array<EdgeDirection, kMostFanPoints> spoke, side;
+  const Eigen::Vector3d u_apex = apex - centre;
+  for (std::int32_t i = 0; i < n; ++i) u[static_cast<std::size_t>(i)] = rim[static_cast<std::size_t>(i)] - centre;
+  for (std::int32_t i = 0; i < n; ++i) {
+    const auto k = static_cast<std::size_t>(i), next = static_cast<std::size_t>(i + 1 == n ? 0 : i + 1);
+    spoke[k] = edge_direction(u[k] - u_apex);
+    side[k] = edge_direction(u[next] - u[k]);
+  }
+  FaceSums sums;
+  for (std::int32_t i = 0; i < n; ++i) {
+    const auto k = static_cast<std::size_t>(i), next = static_cast<std::size_t>(i + 1 == n ? 0 : i + 1);
+    // Triangle (apex, P_i, P_i+1), the same test as the polygon's term first.
+    const Eigen::Vector3d tri_lo = u_apex.cwiseMin(u[k]).cwiseMin(u[next]);
+    const Eigen::Vector3d tri_hi = u_apex.cwiseMax(u[k]).cwiseMax(u[next]);
+    if (tri_lo.cwiseMax(0.0).cwiseMin(tri_hi).squaredNorm() >= r2) continue;
+    const auto vertex = [&](std::int32_t j) -> const Eigen::Vector3d& { return j == 0 ? u_apex : j == 1 ? u[k] : u[next]; };
+    const auto edge = [&](std::int32_t j) {
+      return j == 0 ? spoke[k] : j == 1 ? side[k] : EdgeDirection{-spoke[next].t, spoke[next].length};
+    };
+    add_face(vertex, edge, 0, 3, b, true, false, sums);
+    if (sums.unsure) return std::nullopt;
+  }
   return sums.volume;
 }
 

@@ -263,6 +263,25 @@ Matrix3d random_map(std::mt19937_64& rng) {
   return m;
 }
 
+/// The box [0, 2] x [0, 1] x [0, 1] split at x ~ 1 by a warped quad into two cells: the
+/// quad's points, its apex (their mean) and the left cell (x = 0 side), the quad as the fan
+/// of four triangles about the apex (as the engine gives it), oriented outwards.
+struct WarpedSplit {
+  std::array<Vector3d, 4> quad{Vector3d(1, 0, 0), Vector3d(1, 1, 0), Vector3d(1.2, 1, 1), Vector3d(0.9, 0, 1)};
+  Vector3d apex = (quad[0] + quad[1] + quad[2] + quad[3]) / 4;
+  Polyhedron left;
+
+  WarpedSplit() {
+    left.vertices = {{0, 0, 0}, {0, 1, 0}, {0, 1, 1}, {0, 0, 1}, quad[0], quad[1], quad[2], quad[3], apex};
+    left.face({0, 3, 2, 1});  // x = 0
+    left.face({0, 4, 7, 3});  // y = 0
+    left.face({1, 2, 6, 5});  // y = 1
+    left.face({0, 1, 5, 4});  // z = 0
+    left.face({3, 7, 6, 2});  // z = 1
+    for (std::int32_t k = 0; k < 4; ++k) left.face({8, 4 + k, 4 + (k + 1) % 4});
+  }
+};
+
 // ---------------------------------------------------------------------------------------
 
 TEST(SpherePolyhedronOverlap, BoxesMatchTheBoxClosedForm) {
@@ -447,19 +466,12 @@ TEST(SpherePolyhedronOverlap, NonConvexAndWarpedFanCellsAddUp) {
   for (std::int32_t k = 0; k < 6; ++k) l.face({k, (k + 1) % 6, (k + 1) % 6 + 6, k + 6});
   EXPECT_NEAR(l.volume(), 3.0, 1e-15);
 
-  // A box [0, 2] x [0, 1] x [0, 1] cut by a warped quad into two cells, the quad as a fan
-  // of four triangles about the mean of its points (as the engine does), oriented out of
-  // the left cell.
-  const std::array<Vector3d, 4> warped{Vector3d(1, 0, 0), Vector3d(1, 1, 0), Vector3d(1.2, 1, 1), Vector3d(0.9, 0, 1)};
-  const Vector3d apex = (warped[0] + warped[1] + warped[2] + warped[3]) / 4;
-  Polyhedron left, right;
-  left.vertices = {{0, 0, 0}, {0, 1, 0}, {0, 1, 1}, {0, 0, 1}, warped[0], warped[1], warped[2], warped[3], apex};
-  left.face({0, 3, 2, 1});     // x = 0
-  left.face({0, 4, 7, 3});     // y = 0
-  left.face({1, 2, 6, 5});     // y = 1
-  left.face({0, 1, 5, 4});     // z = 0
-  left.face({3, 7, 6, 2});     // z = 1
-  for (std::int32_t k = 0; k < 4; ++k) left.face({8, 4 + k, 4 + (k + 1) % 4});
+  // WarpedSplit's two cells.
+  const WarpedSplit split;
+  const auto& warped = split.quad;
+  const Vector3d& apex = split.apex;
+  const Polyhedron& left = split.left;
+  Polyhedron right;
   right.vertices = {{2, 0, 0}, {2, 1, 0}, {2, 1, 1}, {2, 0, 1}, warped[0], warped[1], warped[2], warped[3], apex};
   right.face({0, 1, 2, 3});    // x = 2
   right.face({4, 0, 3, 7});    // y = 0
@@ -622,17 +634,10 @@ TEST(SpherePolyhedronOverlapLocated, EqualsTheGeneralOverlapOnBoxesAndNonConvexC
 
 TEST(SpherePolyhedronOverlapLocated, CentresNearAnEdgeOrTheApexOfAWarpedFanTakeTheGeneralFormula) {
   using namespace located;
-  // The left cell of NonConvexAndWarpedFanCellsAddUp: a warped quad as a fan about its apex.
-  const std::array<Vector3d, 4> warped{Vector3d(1, 0, 0), Vector3d(1, 1, 0), Vector3d(1.2, 1, 1), Vector3d(0.9, 0, 1)};
-  const Vector3d apex = (warped[0] + warped[1] + warped[2] + warped[3]) / 4;
-  Polyhedron left;
-  left.vertices = {{0, 0, 0}, {0, 1, 0}, {0, 1, 1}, {0, 0, 1}, warped[0], warped[1], warped[2], warped[3], apex};
-  left.face({0, 3, 2, 1});
-  left.face({0, 4, 7, 3});
-  left.face({1, 2, 6, 5});
-  left.face({0, 1, 5, 4});
-  left.face({3, 7, 6, 2});
-  for (std::int32_t k = 0; k < 4; ++k) left.face({8, 4 + k, 4 + (k + 1) % 4});
+  // WarpedSplit's left cell: a warped quad as a fan about its apex.
+  const WarpedSplit split;
+  const Vector3d& apex = split.apex;
+  const Polyhedron& left = split.left;
   const double r = 0.3, ball = ball_volume(r);
   // Beside the apex the fan triangles' solid angles change by O(1) within the distance
   // to it; the located sum would lose digits (about 1e-17 of the ball over the distance).
@@ -739,4 +744,104 @@ TEST(SpherePolyhedronOverlapLocated, FaceTermsSharedByTwoCellsMatchNumericalInte
   EXPECT_EQ(sphere_face_located_term(Vector3d(0.5, 0.5, 3), 0.3, polygon(cube, 0, false)), 0.0);
   EXPECT_FALSE(sphere_face_located_term(Vector3d(0.5, 0.5, 0), 0.3, polygon(cube, 0, false)).has_value());
   EXPECT_EQ(sphere_located_overlap(0.3, true, 0.0), ball_volume(0.3));
+}
+
+TEST(SpherePolyhedronOverlapLocated, AWarpedFansTermIsTheSumOfItsTrianglesAndClosesTheBoxItSplits) {
+  using vfe::kernels::sphere_face_located_term;
+  using vfe::kernels::sphere_fan_located_term;
+  using vfe::kernels::sphere_located_overlap;
+  // The sum of the triangles' own terms, or none where one declines.
+  const auto triangles = [](const Vector3d& c, double r, const Vector3d& apex, const std::vector<Vector3d>& rim) {
+    double sum = 0;
+    for (std::size_t i = 0; i < rim.size(); ++i) {
+      const std::array<Vector3d, 3> t{apex, rim[i], rim[(i + 1) % rim.size()]};
+      const std::optional<double> term = sphere_face_located_term(c, r, t);
+      if (!term) return std::optional<double>();
+      sum += *term;
+    }
+    return std::optional<double>(sum);
+  };
+  std::mt19937_64 rng(47);
+  std::uniform_real_distribution<double> u(-1, 1), rad(0.1, 1.2);
+  int reached = 0, declined = 0;
+  // Warped rims of 3 to 40 points (over 32 the triangles are taken one by one) about the
+  // unit circle in z = 0, their points lifted at random, the apex at the points' mean.
+  for (int trial = 0; trial < 3000; ++trial) {
+    const int n = 3 + trial % 38;
+    std::vector<Vector3d> rim;
+    for (int i = 0; i < n; ++i) {
+      const double angle = 2 * kPi * (i + 0.3 * u(rng)) / n;
+      rim.emplace_back(std::cos(angle), std::sin(angle), 0.2 * u(rng));
+    }
+    Vector3d apex = Vector3d::Zero();
+    for (const Vector3d& p : rim) apex += p / n;
+    const Vector3d c(1.5 * u(rng), 1.5 * u(rng), 0.8 * u(rng));
+    const double r = rad(rng), ball = ball_volume(r);
+    const std::optional<double> fan = sphere_fan_located_term(c, r, apex, rim);
+    const std::optional<double> sum = triangles(c, r, apex, rim);
+    // Both decline together (near a spoke's or a side's line).
+    ASSERT_EQ(fan.has_value(), sum.has_value()) << trial;
+    if (!fan) {
+      ++declined;
+      continue;
+    }
+    reached += *sum != 0;
+    ASSERT_NEAR(*fan, *sum, 1e-14 * ball) << "trial " << trial << " n " << n;
+    // Reversed, the term is negated.
+    std::vector<Vector3d> reversed(rim.rbegin(), rim.rend());
+    if (const std::optional<double> back = sphere_fan_located_term(c, r, apex, reversed)) {
+      ASSERT_NEAR(*back, -*fan, 1e-14 * ball) << trial;
+    }
+  }
+  EXPECT_GT(reached, 1500);
+  EXPECT_LT(declined, 30);
+  // A fan whose box misses the ball adds exactly nothing; a centre on a reaching
+  // triangle's plane (here the first triangle's, z = 0) has no term.
+  const std::vector<Vector3d> square{{0, 0, 0}, {1, 0, 0}, {1, 1, 0.1}, {0, 1, -0.1}};
+  const Vector3d apex(0.5, 0.5, 0);
+  EXPECT_EQ(sphere_fan_located_term(Vector3d(0.5, 0.5, 2), 0.5, apex, square), 0.0);
+  EXPECT_FALSE(sphere_fan_located_term(Vector3d(0.5, 0.2, 0), 0.3, apex, square).has_value());
+  EXPECT_TRUE(sphere_fan_located_term(Vector3d(0.5, 0.2, 0.05), 0.3, apex, square).has_value());
+
+  // An independent closed form: WarpedSplit's two cells' located overlaps, each from its
+  // faces' terms (the fan's term shared, negated for the right cell), add up to the box's.
+  const WarpedSplit split;
+  const std::vector<Vector3d> warped(split.quad.begin(), split.quad.end());
+  const Vector3d& middle = split.apex;
+  const auto quad = [](Vector3d a, Vector3d b, Vector3d c, Vector3d d) { return std::vector<Vector3d>{a, b, c, d}; };
+  int closed = 0;
+  for (int trial = 0; trial < 500; ++trial) {
+    const Vector3d c(1 + 0.9 * u(rng), 0.5 + 0.45 * u(rng), 0.5 + 0.45 * u(rng));
+    const double r = 0.5 * rad(rng), ball = ball_volume(r);
+    const std::optional<double> shared = sphere_fan_located_term(c, r, middle, warped);
+    if (!shared) continue;
+    // Outward faces of the left cell (x = 0 side) besides the fan, then of the right cell.
+    const std::vector<std::vector<Vector3d>> left_faces{
+        quad({0, 0, 0}, {0, 0, 1}, {0, 1, 1}, {0, 1, 0}), quad({0, 0, 0}, warped[0], warped[3], {0, 0, 1}),
+        quad({0, 1, 0}, {0, 1, 1}, warped[2], warped[1]), quad({0, 0, 0}, {0, 1, 0}, warped[1], warped[0]),
+        quad({0, 0, 1}, warped[3], warped[2], {0, 1, 1})};
+    const std::vector<std::vector<Vector3d>> right_faces{
+        quad({2, 0, 0}, {2, 1, 0}, {2, 1, 1}, {2, 0, 1}), quad(warped[0], {2, 0, 0}, {2, 0, 1}, warped[3]),
+        quad(warped[1], warped[2], {2, 1, 1}, {2, 1, 0}), quad(warped[0], warped[1], {2, 1, 0}, {2, 0, 0}),
+        quad(warped[3], {2, 0, 1}, {2, 1, 1}, warped[2])};
+    const auto cell = [&](const std::vector<std::vector<Vector3d>>& faces, double fan_term, bool inside) {
+      double sum = fan_term;
+      for (const auto& face : faces) {
+        const std::optional<double> term = sphere_face_located_term(c, r, face);
+        if (!term) return std::optional<double>();
+        sum += *term;
+      }
+      return std::optional<double>(sphere_located_overlap(r, inside, sum));
+    };
+    // Which cell holds the centre: whether a tiny ball about it lies in the left one.
+    const Polyhedron& left = split.left;
+    const double general_left = left.overlap(c, r);
+    const bool in_left = left.overlap(c, 1e-9) > 0.5 * ball_volume(1e-9);
+    const std::optional<double> lv = cell(left_faces, *shared, in_left), rv = cell(right_faces, -*shared, !in_left);
+    if (!lv || !rv) continue;
+    ASSERT_NEAR(*lv + *rv, sphere_box_overlap(c, r, Vector3d::Zero(), Vector3d(2, 1, 1)), 1e-13 * ball) << trial;
+    ASSERT_NEAR(*lv, general_left, 1e-13 * ball) << trial;
+    closed += *shared != 0;
+  }
+  EXPECT_GT(closed, 150);  // the fan cut about a third of the balls
 }

@@ -7,7 +7,6 @@
 #include <vfe/kernels/sphere_polyhedron_overlap.hpp>
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <optional>
 
@@ -50,19 +49,11 @@ const Scratch::FaceTerm& face_term(const PolyMesh& mesh, std::int64_t f, const E
   auto& points = s.cell_points;
   points.clear();
   for (const std::int64_t q : mesh.face(f)) points.push_back(mesh.points()[static_cast<std::size_t>(q)]);
-  if (mesh.face_plane_triangle(f) >= 0) {
-    const std::optional<double> v = kernels::sphere_face_located_term(centre, radius, points);
-    term.sure = v.has_value();
-    term.value = v.value_or(0.0);
-    return term;
-  }
-  const std::size_t n = points.size();
-  for (std::size_t i = 0; i < n && term.sure; ++i) {
-    const std::array<Eigen::Vector3d, 3> triangle{mesh.face_apex(f), points[i], points[i + 1 == n ? 0 : i + 1]};
-    const std::optional<double> v = kernels::sphere_face_located_term(centre, radius, triangle);
-    term.sure = v.has_value();
-    term.value += v.value_or(0.0);
-  }
+  const std::optional<double> v = mesh.face_plane_triangle(f) >= 0
+                                      ? kernels::sphere_face_located_term(centre, radius, points)
+                                      : kernels::sphere_fan_located_term(centre, radius, mesh.face_apex(f), points);
+  term.sure = v.has_value();
+  term.value = v.value_or(0.0);
   return term;
 }
 

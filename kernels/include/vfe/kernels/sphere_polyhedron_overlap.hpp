@@ -60,6 +60,14 @@ std::optional<double> sphere_polyhedron_overlap_located(const Eigen::Vector3d& c
 std::optional<double> sphere_face_located_term(const Eigen::Vector3d& centre, double radius,
                                                std::span<const Eigen::Vector3d> polygon);
 
+/// The sum of sphere_face_located_term over the fan of triangles (apex, rim[i], rim[i+1])
+/// (rim closed: the last point's next is the first), a warped face's surface; no value
+/// where a triangle's term has none. The same to round-off, for less work: the spokes,
+/// shared by two triangles, are measured once, and a fan whose box misses the ball costs
+/// that test only.
+std::optional<double> sphere_fan_located_term(const Eigen::Vector3d& centre, double radius, const Eigen::Vector3d& apex,
+                                              std::span<const Eigen::Vector3d> rim);
+
 /// A located cell's overlap from the sum of its reaching faces' terms: the ball's volume
 /// if the centre is inside, plus the sum, clamped to [0, ball volume].
 double sphere_located_overlap(double radius, bool centre_inside, double face_terms);
