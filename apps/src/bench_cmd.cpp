@@ -255,18 +255,20 @@ struct LocateScratch {
   std::int64_t index_sum = 0;
 };
 
-/// PMM's locate step and nothing else, over every sub-element of every particle (no fast
-/// path, no rotation): the engine's own kernel with the whole grid as the block, so each
-/// cell index is floor((centre + r * point - origin) / h) clamped per axis and combined.
-/// scatter: then add each sub-element's volume to its cell in this thread's field (never
-/// merged: a lower bound), one add per sub-element; otherwise only sum the indices.
+/// PMM's locate step and nothing else, over every sub-element of the first `count`
+/// particles (no fast path, no rotation): the engine's own kernel with the whole grid as
+/// the block, so each cell index is floor((centre + r * point - origin) / h) clamped per
+/// axis and combined. scatter: then add each sub-element's volume to its cell in this
+/// thread's field (never merged: a lower bound), one add per sub-element; otherwise only
+/// sum the indices.
 template <bool kScatter>
 void locate_pass(tbb::task_arena& arena, const BenchScene& s, const vfe::CartesianGridSpec& g,
-                 const TemplateChoice& choice, tbb::enumerable_thread_specific<LocateScratch>& scratch) {
+                 const TemplateChoice& choice, tbb::enumerable_thread_specific<LocateScratch>& scratch,
+                 std::int64_t count) {
   const std::size_t ncells = static_cast<std::size_t>(g.cells[0] * g.cells[1] * g.cells[2]);
   const double inv_h = 1.0 / g.spacing[0];  // cubic cells
   arena.execute([&] {
-    tbb::parallel_for(tbb::blocked_range<std::int64_t>(0, s.n, 256), [&](const tbb::blocked_range<std::int64_t>& r) {
+    tbb::parallel_for(tbb::blocked_range<std::int64_t>(0, count, 256), [&](const tbb::blocked_range<std::int64_t>& r) {
       LocateScratch& local = scratch.local();
       if (kScatter && local.field.size() != ncells) local.field.assign(ncells, 0.0);
       std::int64_t index_sum = 0;
@@ -292,6 +294,22 @@ void locate_pass(tbb::task_arena& arena, const BenchScene& s, const vfe::Cartesi
       local.index_sum += index_sum;
     });
   });
+}
+
+/// The machine's control for the methods' speed-ups: the locate limit over the first
+/// particles that hold this many sub-elements (a few ms on one thread), timed for every
+/// thread count within the rounds of each method's engines. It has no serial part and no
+/// shared writes, so its speed-up is what the machine gave two threads at those moments.
+constexpr std::int64_t kControlSubElements = 2'000'000;
+
+/// The fewest first particles of `choice` holding `sub_elements` sub-elements (all when the
+/// scene has fewer).
+std::int64_t control_particles(const TemplateChoice& choice, std::int64_t sub_elements) {
+  std::int64_t held = 0, count = 0;
+  const auto n = static_cast<std::int64_t>(choice.of_particle.size());
+  while (count < n && held < sub_elements)
+    held += static_cast<std::int64_t>(choice.templates[choice.of_particle[static_cast<std::size_t>(count++)]].size());
+  return count;
 }
 
 /// Index in `threads` of the one-thread count, or threads.size() for none.
@@ -334,13 +352,13 @@ std::vector<BenchLimit> measure_limits(std::vector<std::unique_ptr<tbb::task_are
   for (const auto& fields : store_fields)
     for (const std::vector<double>& f : fields) g_sink = f.empty() ? 0.0 : f[0];
   std::vector<tbb::enumerable_thread_specific<LocateScratch>> scratch(nt);
-  for (std::size_t k = 0; k < nt; ++k) locate_pass<true>(*arenas[k], scene, grid, choice, scratch[k]);
+  for (std::size_t k = 0; k < nt; ++k) locate_pass<true>(*arenas[k], scene, grid, choice, scratch[k], scene.n);
   keep(time_rounds(nt, repeats,
-                   [&](std::size_t k) { locate_pass<true>(*arenas[k], scene, grid, choice, scratch[k]); }),
+                   [&](std::size_t k) { locate_pass<true>(*arenas[k], scene, grid, choice, scratch[k], scene.n); }),
        &BenchLimit::scatter_ms, &BenchLimit::scatter_speedup);
-  for (std::size_t k = 0; k < nt; ++k) locate_pass<false>(*arenas[k], scene, grid, choice, scratch[k]);
+  for (std::size_t k = 0; k < nt; ++k) locate_pass<false>(*arenas[k], scene, grid, choice, scratch[k], scene.n);
   keep(time_rounds(nt, repeats,
-                   [&](std::size_t k) { locate_pass<false>(*arenas[k], scene, grid, choice, scratch[k]); }),
+                   [&](std::size_t k) { locate_pass<false>(*arenas[k], scene, grid, choice, scratch[k], scene.n); }),
        &BenchLimit::locate_ms, &BenchLimit::locate_speedup);
   for (const auto& per_thread : scratch)
     for (const LocateScratch& local : per_thread) g_sink = double(local.index_sum);
@@ -400,6 +418,7 @@ Record record_of(const BenchRow& r) {
           {"speedup", r.speedup},
           {"speedup_min", r.speedup_min},
           {"speedup_max", r.speedup_max},
+          {"control_speedup", r.control_speedup},
           {"bandwidth_ms", r.bandwidth_ms},
           {"store_ms", r.store_ms},
           {"scatter_ms", r.scatter_ms},
@@ -487,18 +506,19 @@ std::string cell_text(const char* format, double v) {
   return buf;
 }
 
-constexpr const char* kRowFormat = "%8s %4s %-14s %3s %9s %10s %8s %8s %7s %7s %6s %7s %7s %7s %9s %8s\n";
+constexpr const char* kRowFormat = "%8s %4s %-14s %3s %9s %10s %8s %8s %7s %7s %6s %7s %5s %7s %7s %9s %8s\n";
 
 void print_header(std::ostream& out) {
   char line[256];
   std::snprintf(line, sizeof line, kRowFormat, "N", "chi", "method", "thr", "cells", "ms", "part/s", "subel/s",
-                "subel/p", "B/part", "B/cell", "speedup", "x bw", "x store", "x scatter", "x locate");
+                "subel/p", "B/part", "B/cell", "speedup", "ctl", "x bw", "x store", "x scatter", "x locate");
   out << line << std::string(std::char_traits<char>::length(line) - 1, '-') << '\n';
 }
 
 void print_line(std::ostream& out, std::int64_t n, double chi, const std::string& method, int threads,
                 std::int64_t cells, double ms, double sub_elements, double bytes_per_particle, double bytes_per_cell,
-                double speedup, double x_bandwidth, double x_store, double x_scatter, double x_locate) {
+                double speedup, double control_speedup, double x_bandwidth, double x_store, double x_scatter,
+                double x_locate) {
   const double per_s = 1e3 / ms;
   char line[256];
   std::snprintf(line, sizeof line, kRowFormat, std::to_string(n).c_str(), cell_text("%.3g", chi).c_str(),
@@ -506,7 +526,8 @@ void print_line(std::ostream& out, std::int64_t n, double chi, const std::string
                 cell_text("%.3f", ms).c_str(), cell_text("%.3g", double(n) * per_s).c_str(),
                 cell_text("%.3g", sub_elements * per_s).c_str(), cell_text("%.4g", sub_elements / double(n)).c_str(),
                 cell_text("%.1f", bytes_per_particle).c_str(), cell_text("%.1f", bytes_per_cell).c_str(),
-                cell_text("%.2f", speedup).c_str(), cell_text("%.1f", x_bandwidth).c_str(),
+                cell_text("%.2f", speedup).c_str(), cell_text("%.2f", control_speedup).c_str(),
+                cell_text("%.1f", x_bandwidth).c_str(),
                 cell_text("%.2f", x_store).c_str(), cell_text("%.2f", x_scatter).c_str(), cell_text("%.2f", x_locate).c_str());
   out << line << std::flush;
 }
@@ -693,6 +714,14 @@ BenchOutcome run_bench(const BenchCommand& c) {
       std::vector<std::unique_ptr<tbb::task_arena>> arenas;
       for (const int t : threads) arenas.push_back(std::make_unique<tbb::task_arena>(t));
       const std::size_t one = one_thread_index(threads);
+      // The control pass of each thread count (none without limits or a one-thread count).
+      const bool control = c.limits && one < threads.size();
+      std::vector<tbb::enumerable_thread_specific<LocateScratch>> control_scratch(control ? threads.size() : 0);
+      const std::int64_t control_count = control ? control_particles(choice, kControlSubElements) : 0;
+      const auto control_pass = [&](std::size_t k) {
+        locate_pass<false>(*arenas[k], scene, grid, choice, control_scratch[k], control_count);
+      };
+      for (std::size_t k = 0; k < control_scratch.size(); ++k) control_pass(k);
       std::vector<BenchLimit> limits(threads.size());
       for (std::size_t k = 0; k < threads.size(); ++k) {
         BenchLimit& limit = limits[k];
@@ -713,13 +742,13 @@ BenchOutcome run_bench(const BenchCommand& c) {
             const int t = limit.threads;
             const double subel = double(limit.locate_sub_elements);
             print_line(*c.table, n, chi, "(bw)", t, ncells, limit.bandwidth_ms, kNaN, kNaN, kNaN,
-                       limit.bandwidth_speedup, kNaN, kNaN, kNaN, kNaN);
+                       limit.bandwidth_speedup, kNaN, kNaN, kNaN, kNaN, kNaN);
             print_line(*c.table, n, chi, "(store)", t, ncells, limit.store_ms, double(n), kNaN, kNaN,
-                       limit.store_speedup, kNaN, kNaN, kNaN, kNaN);
+                       limit.store_speedup, kNaN, kNaN, kNaN, kNaN, kNaN);
             print_line(*c.table, n, chi, "(scatter)", t, ncells, limit.scatter_ms, subel, kNaN, kNaN,
-                       limit.scatter_speedup, kNaN, kNaN, kNaN, kNaN);
+                       limit.scatter_speedup, kNaN, kNaN, kNaN, kNaN, kNaN);
             print_line(*c.table, n, chi, "(locate)", t, ncells, limit.locate_ms, subel, kNaN, kNaN,
-                       limit.locate_speedup, kNaN, kNaN, kNaN, kNaN);
+                       limit.locate_speedup, kNaN, kNaN, kNaN, kNaN, kNaN);
           }
         }
       }
@@ -757,8 +786,14 @@ BenchOutcome run_bench(const BenchCommand& c) {
           warn_overfull(*log, scene.name + " chi=" + printf_number("%.3g", chi), method, overfull_facts(*e.engine),
                         e.rep.particle_volume);
         }
+        // The engines, then the control of each thread count, in every round.
         const std::vector<std::vector<double>> ms =
-            time_rounds(timed.size(), c.repeats, [&](std::size_t i) { timed[i].engine->compute(view, field); });
+            time_rounds(timed.size() + control_scratch.size(), c.repeats, [&](std::size_t i) {
+              if (i < timed.size())
+                timed[i].engine->compute(view, field);
+              else
+                control_pass(i - timed.size());
+            });
         for (std::size_t i = 0; i < timed.size(); ++i) {
           const std::size_t k = i / norders;
           const int t = threads[k];
@@ -809,6 +844,7 @@ BenchOutcome run_bench(const BenchCommand& c) {
           row.speedup = speedup.median;
           row.speedup_min = speedup.min;
           row.speedup_max = speedup.max;
+          row.control_speedup = control ? speedup_over(&ms[timed.size() + one], ms[timed.size() + k], t).median : kNaN;
           row.bandwidth_ms = limit.bandwidth_ms;
           row.store_ms = limit.store_ms;
           row.scatter_ms = limit.scatter_ms;
@@ -822,16 +858,19 @@ BenchOutcome run_bench(const BenchCommand& c) {
                     n, chi, label, t, row.time_median_ms);
           if (c.table)
             print_line(*c.table, n, chi, label, t, ncells, row.time_median_ms, double(row.sub_elements),
-                       row.bytes_per_particle, row.bytes_per_cell, row.speedup, row.x_bandwidth, row.x_store,
-                       row.x_scatter, row.x_locate);
+                       row.bytes_per_particle, row.bytes_per_cell, row.speedup, row.control_speedup, row.x_bandwidth,
+                       row.x_store, row.x_scatter, row.x_locate);
         }
       }
+      for (const auto& per_thread : control_scratch)
+        for (const LocateScratch& local : per_thread) g_sink = double(local.index_sum);
     }
   }
   out.peak_rss_bytes = peak_resident_bytes();
   if (c.table)
     *c.table << "(bw: read centres and radii, clear the field; store: add each volume to its centre's cell; scatter: pmm's cell index of every sub-element and "
-                "an add there; locate: the index only; x ...: time / that limit; B/part: RSS growth over the first "
+                "an add there; locate: the index only; ctl: the speed-up of a short locate pass timed in the method's own rounds, "
+                "what the machine gave; x ...: time / that limit; B/part: RSS growth over the first "
                 "compute / N; B/cell: RSS growth on creating the engine / cells)\npeak RSS: "
              << cell_text("%.1f", double(out.peak_rss_bytes) / (1 << 20)) << " MiB\n"
              << std::flush;

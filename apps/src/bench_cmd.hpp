@@ -86,6 +86,10 @@ struct BenchRow {
   /// timed in turn within each round; NaN for a 1-thread row or without one. speedup_min
   /// and speedup_max: the least and greatest of those ratios (the machine's noise).
   double speedup = 0, speedup_min = 0, speedup_max = 0;
+  /// The machine's control in the same rounds: the speed-up (as speedup) of a short locate
+  /// pass (no serial part, no shared writes) timed after the engines in every round; NaN
+  /// for a 1-thread row, without a 1-thread count or without the limits.
+  double control_speedup = 0;
   /// The limits at the same (scene, N, chi, threads) and time_median_ms as a multiple of each.
   double bandwidth_ms = 0, store_ms = 0, scatter_ms = 0, locate_ms = 0;
   double x_bandwidth = 0, x_store = 0, x_scatter = 0, x_locate = 0;

@@ -231,11 +231,15 @@ TEST(Bench, ThreadCountsAreTimedSideBySideWithPairedSpeedups) {
     if (r.threads == 1) {
       EXPECT_TRUE(std::isnan(r.speedup));
       EXPECT_TRUE(std::isnan(r.speedup_max));
+      EXPECT_TRUE(std::isnan(r.control_speedup));
     } else {
       EXPECT_GT(r.speedup, 0);
       EXPECT_TRUE(std::isfinite(r.speedup));
       EXPECT_LE(r.speedup_min, r.speedup);
       EXPECT_LE(r.speedup, r.speedup_max);
+      // The machine's control, timed in the same rounds.
+      EXPECT_GT(r.control_speedup, 0);
+      EXPECT_TRUE(std::isfinite(r.control_speedup));
     }
   }
   EXPECT_EQ(out.rows[0].sub_elements, out.rows[1].sub_elements);
@@ -250,13 +254,22 @@ TEST(Bench, ThreadCountsAreTimedSideBySideWithPairedSpeedups) {
   }
   for (const BenchRow& r : out.rows) EXPECT_EQ(r.store_ms, out.limits[r.threads - 1].store_ms);
   EXPECT_NE(test::read_text(out.output / "limits.csv").find("store_speedup"), std::string::npos);
+  EXPECT_NE(test::read_text(out.output / "bench.csv").find("control_speedup"), std::string::npos);
   // Without a 1-thread count there is nothing to compare with.
   c.threads = {2};
   c.methods = {"direct"};
   const BenchOutcome two = run_bench(c);
   ASSERT_EQ(two.rows.size(), 1u);
   EXPECT_TRUE(std::isnan(two.rows[0].speedup));
+  EXPECT_TRUE(std::isnan(two.rows[0].control_speedup));
   EXPECT_TRUE(std::isnan(two.limits[0].store_speedup));
+  // Without the limits there is no control either; the speed-up stays.
+  c.threads = {1, 2};
+  c.limits = false;
+  const BenchOutcome bare = run_bench(c);
+  ASSERT_EQ(bare.rows.size(), 2u);
+  EXPECT_TRUE(std::isfinite(bare.rows[1].speedup));
+  EXPECT_TRUE(std::isnan(bare.rows[1].control_speedup));
 }
 
 TEST(Bench, AllIsEveryEngineMethod) {
