@@ -153,6 +153,25 @@ struct Ball {
   double height_rounding;
 };
 
+/// The ball (centre, r) where it reaches into the box [lo, hi] of the faces' points, with
+/// the rounding bound of their coordinates and the centre's; none where the box misses
+/// the open ball (no face in the box reaches into it).
+std::optional<Ball> ball_reaching(const Eigen::Vector3d& centre, double r, const Eigen::Vector3d& lo,
+                                  const Eigen::Vector3d& hi) {
+  const double r2 = r * r;
+  if ((centre.cwiseMax(lo).cwiseMin(hi) - centre).squaredNorm() >= r2) return std::nullopt;
+  return Ball{r, r2, r2 * r,
+              1e-12 * std::max({centre.cwiseAbs().maxCoeff(), lo.cwiseAbs().maxCoeff(), hi.cwiseAbs().maxCoeff()})};
+}
+
+/// [lo, hi] grown to hold `points`.
+void extend_box(std::span<const Eigen::Vector3d> points, Eigen::Vector3d& lo, Eigen::Vector3d& hi) {
+  for (const Eigen::Vector3d& v : points) {
+    lo = lo.cwiseMin(v);
+    hi = hi.cwiseMax(v);
+  }
+}
+
 /// What one face adds to overlap()'s sums.
 struct FaceSums {
   double volume = 0;          ///< the cones' sum (the located sum's terms when the winding is known)
@@ -304,7 +323,7 @@ std::optional<double> overlap(const Eigen::Vector3d& centre, double radius,
                               std::span<const std::int32_t> face_vertices, int winding) {
   const bool known = winding >= 0;
   if (!(radius > 0)) return 0;
-  const double r = radius, r2 = r * r, r3 = r * r * r;
+  const double r = radius, r2 = r * r;
   const double ball = ball_volume(r);
   if (face_offsets.size() < 2 || vertices.empty()) return known ? winding * ball : 0;
 
@@ -319,9 +338,9 @@ std::optional<double> overlap(const Eigen::Vector3d& centre, double radius,
     hi = hi.cwiseMax(v);
     contained = contained && (v - centre).squaredNorm() <= r2;
   }
-  if ((centre.cwiseMax(lo).cwiseMin(hi) - centre).squaredNorm() >= r2) return known ? winding * ball : 0;
-  const Ball b{r, r2, r3,
-               1e-12 * std::max({centre.cwiseAbs().maxCoeff(), lo.cwiseAbs().maxCoeff(), hi.cwiseAbs().maxCoeff()})};
+  const std::optional<Ball> reaching = ball_reaching(centre, r, lo, hi);
+  if (!reaching) return known ? winding * ball : 0;
+  const Ball& b = *reaching;
 
   const auto vertex = [&](std::int32_t k) -> Eigen::Vector3d {
     return vertices[static_cast<std::size_t>(face_vertices[static_cast<std::size_t>(k)])] - centre;
@@ -365,19 +384,14 @@ std::optional<double> sphere_face_located_term(const Eigen::Vector3d& centre, do
                                                std::span<const Eigen::Vector3d> polygon) {
   const auto n = static_cast<std::int32_t>(polygon.size());
   if (!(radius > 0) || n < 3) return 0;
-  const double r2 = radius * radius;
   Eigen::Vector3d lo = polygon[0], hi = polygon[0];
-  for (const Eigen::Vector3d& v : polygon) {
-    lo = lo.cwiseMin(v);
-    hi = hi.cwiseMax(v);
-  }
-  if ((centre.cwiseMax(lo).cwiseMin(hi) - centre).squaredNorm() >= r2) return 0;
-  const Ball b{radius, r2, r2 * radius,
-               1e-12 * std::max({centre.cwiseAbs().maxCoeff(), lo.cwiseAbs().maxCoeff(), hi.cwiseAbs().maxCoeff()})};
+  extend_box(polygon, lo, hi);
+  const std::optional<Ball> reaching = ball_reaching(centre, radius, lo, hi);
+  if (!reaching) return 0;
   const auto vertex = [&](std::int32_t k) -> Eigen::Vector3d { return polygon[static_cast<std::size_t>(k)] - centre; };
   const auto edge = [&](std::int32_t k) { return edge_direction(vertex(k + 1 == n ? 0 : k + 1) - vertex(k)); };
   FaceSums sums;
-  add_face(vertex, edge, 0, n, b, true, false, sums);
+  add_face(vertex, edge, 0, n, *reaching, true, false, sums);
   if (sums.unsure) return std::nullopt;
   return sums.volume;
 }
@@ -388,14 +402,11 @@ std::optional<double> sphere_fan_located_term(const Eigen::Vector3d& centre, dou
                                               std::span<const Eigen::Vector3d> rim) {
   const auto n = static_cast<std::int32_t>(rim.size());
   if (!(radius > 0) || n < 2) return 0;
-  const double r2 = radius * radius;
   // The fan lies in the box of its points: no triangle reaches the ball when the box misses it.
   Eigen::Vector3d lo = apex, hi = apex;
-  for (const Eigen::Vector3d& v : rim) {
-    lo = lo.cwiseMin(v);
-    hi = hi.cwiseMax(v);
-  }
-  if ((centre.cwiseMax(lo).cwiseMin(hi) - centre).squaredNorm() >= r2) return 0;
+  extend_box(rim, lo, hi);
+  const std::optional<Ball> reaching = ball_reaching(centre, radius, lo, hi);
+  if (!reaching) return 0;
   if (n > kMostFanPoints) {  // rare: the triangles one by one
     double sum = 0;
     for (std::int32_t i = 0; i < n; ++i) {
@@ -407,8 +418,7 @@ std::optional<double> sphere_fan_located_term(const Eigen::Vector3d& centre, dou
     }
     return sum;
   }
-  const Ball b{radius, r2, r2 * radius,
-               1e-12 * std::max({centre.cwiseAbs().maxCoeff(), lo.cwiseAbs().maxCoeff(), hi.cwiseAbs().maxCoeff()})};
+  const double r2 = reaching->r2;
   // The points relative to the centre, and the directions of the spokes (apex to rim
   // point) and of the rim's edges, each computed once: a spoke borders two triangles.
   std::array<Eigen::Vector3d, kMostFanPoints> u;
@@ -431,7 +441,7 @@ std::optional<double> sphere_fan_located_term(const Eigen::Vector3d& centre, dou
     const auto edge = [&](std::int32_t j) {
       return j == 0 ? spoke[k] : j == 1 ? side[k] : EdgeDirection{-spoke[next].t, spoke[next].length};
     };
-    add_face(vertex, edge, 0, 3, b, true, false, sums);
+    add_face(vertex, edge, 0, 3, *reaching, true, false, sums);
     if (sums.unsure) return std::nullopt;
   }
   return sums.volume;
