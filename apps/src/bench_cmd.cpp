@@ -296,6 +296,12 @@ void locate_pass(tbb::task_arena& arena, const BenchScene& s, const vfe::Cartesi
   });
 }
 
+/// Keeps the locate passes' index sums alive (the compiler may not drop the passes).
+void sink_index_sums(const std::vector<tbb::enumerable_thread_specific<LocateScratch>>& scratch) {
+  for (const auto& per_thread : scratch)
+    for (const LocateScratch& local : per_thread) g_sink = double(local.index_sum);
+}
+
 /// The machine's control for the methods' speed-ups: the locate limit over the first
 /// particles that hold this many sub-elements (a few ms on one thread), timed for every
 /// thread count within the rounds of each method's engines. It has no serial part and no
@@ -360,8 +366,7 @@ std::vector<BenchLimit> measure_limits(std::vector<std::unique_ptr<tbb::task_are
   keep(time_rounds(nt, repeats,
                    [&](std::size_t k) { locate_pass<false>(*arenas[k], scene, grid, choice, scratch[k], scene.n); }),
        &BenchLimit::locate_ms, &BenchLimit::locate_speedup);
-  for (const auto& per_thread : scratch)
-    for (const LocateScratch& local : per_thread) g_sink = double(local.index_sum);
+  sink_index_sums(scratch);
   for (std::size_t k = 0; k < nt; ++k) {
     limits[k].cells = static_cast<std::int64_t>(field.size());
     limits[k].bandwidth_bytes = static_cast<std::int64_t>(sizeof(double)) * (4 * scene.n + limits[k].cells);
@@ -862,8 +867,7 @@ BenchOutcome run_bench(const BenchCommand& c) {
                        row.x_store, row.x_scatter, row.x_locate);
         }
       }
-      for (const auto& per_thread : control_scratch)
-        for (const LocateScratch& local : per_thread) g_sink = double(local.index_sum);
+      sink_index_sums(control_scratch);
     }
   }
   out.peak_rss_bytes = peak_resident_bytes();
