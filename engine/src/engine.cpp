@@ -519,7 +519,8 @@ struct Engine::Impl {
            !pl.uses_blocks() && !pl.touched_only;
   }
 
-  void fused_pmm(const ParticleArrays& pa, const detail::AccumulationPlan& pl, const detail::TemplateBank& bank) {
+  Validation fused_pmm(const ParticleArrays& pa, const detail::AccumulationPlan& pl, const detail::TemplateBank& bank,
+                       bool validating) {
     const detail::Context ctx{detail::MethodContext{opts, bank, divided}, *fused_grid().grid};
     const detail::PmmQuick quick(ctx, true);
     const bool hybrid = opts.method == Method::automatic;
@@ -529,7 +530,9 @@ struct Engine::Impl {
       for (const kernels::ParticleTemplate* t : quick.chunk_templates())
         if (!detail::auto_counts_every_window(*t)) chunked = nullptr;
     projected_counts = chunked && quick.counts_from_projections();
-    private_field_pass(pa, pl, [&](Scratch& s, auto&& add, const tbb::blocked_range<std::int64_t>& r) {
+    static_assert(detail::PmmQuick::kChunk == kChunk, "a planned chunk is a checked chunk");
+    return private_field_pass(pa, pl, validating, [&](Scratch& s, auto&& add, const tbb::blocked_range<std::int64_t>& r,
+                                                      auto&& check) {
       // One particle record for the range, its per-particle fields set in the loop
       // (building a whole record per particle costs as much as a quick case).
       detail::Particle part{0, Eigen::Vector3d::Zero(), 0.0, 0.0, nullptr, 0};
@@ -548,7 +551,10 @@ struct Engine::Impl {
         detail::QuickWindows planned;
         for (std::int64_t chunk = r.begin(); chunk < r.end(); chunk += kChunk) {
           const std::int64_t n = std::min(kChunk, r.end() - chunk);
+          // The planning first: it asks for the spheres' lines ahead. It computes on any
+          // values; a bad sphere's chunk goes no further.
           detail::plan_sphere_windows(pa, chunk, n, *g, planned);
+          if (!check(chunk, n)) continue;  // the compute fails
           detail::PmmQuick::Tally tally;
           auto finish = [&](auto&& taken) {
             quick.finish_chunk(
@@ -572,20 +578,24 @@ struct Engine::Impl {
         }
         return;
       }
-      for (std::int64_t p = r.begin(); p < r.end(); ++p) {
-        __builtin_prefetch(pa.centres + (p + 16) * pa.centres_stride);
-        __builtin_prefetch(pa.radii + (p + 16) * pa.radii_stride);
-        const double radius = pa.radius(p);
-        part.index = pa.host(p);
-        part.centre = pa.centre(p);
-        part.radius = radius;
-        part.volume = sphere_volume(radius);
-        part.rotation_key = pa.rotation_key(p);
-        // An octant without sub-elements may add 0.0: a cell of the private field stays as it is.
-        if (hybrid ? detail::auto_sphere_quick(quick, s, part, add, detail::PmmQuick::EmptyOctants::add_zero)
-                   : quick(s, part, add, detail::PmmQuick::EmptyOctants::add_zero))
-          continue;
-        general(p);
+      for (std::int64_t first = r.begin(); first < r.end(); first += kChunk) {
+        const std::int64_t end = std::min(first + kChunk, r.end());
+        if (!check(first, end - first)) continue;  // the compute fails
+        for (std::int64_t p = first; p < end; ++p) {
+          __builtin_prefetch(pa.centres + (p + 16) * pa.centres_stride);
+          __builtin_prefetch(pa.radii + (p + 16) * pa.radii_stride);
+          const double radius = pa.radius(p);
+          part.index = pa.host(p);
+          part.centre = pa.centre(p);
+          part.radius = radius;
+          part.volume = sphere_volume(radius);
+          part.rotation_key = pa.rotation_key(p);
+          // An octant without sub-elements may add 0.0: a cell of the private field stays as it is.
+          if (hybrid ? detail::auto_sphere_quick(quick, s, part, add, detail::PmmQuick::EmptyOctants::add_zero)
+                     : quick(s, part, add, detail::PmmQuick::EmptyOctants::add_zero))
+            continue;
+          general(p);
+        }
       }
     });
   }
@@ -599,26 +609,28 @@ struct Engine::Impl {
            pl.strategy == Accumulation::privatised && !pl.uses_blocks() && !pl.touched_only;
   }
 
-  void fused_exact(const ParticleArrays& pa, const detail::AccumulationPlan& pl, const detail::TemplateBank& bank) {
+  Validation fused_exact(const ParticleArrays& pa, const detail::AccumulationPlan& pl,
+                         const detail::TemplateBank& bank, bool validating) {
     const detail::Context ctx{detail::MethodContext{opts, bank, divided}, *fused_grid().grid};
-    private_field_pass(pa, pl, [&](Scratch& s, auto&& add, const tbb::blocked_range<std::int64_t>& r) {
-      for (std::int64_t p = r.begin(); p < r.end(); ++p) {
-        const double radius = pa.radius(p);
-        // A sphere needs no rotation key; its index is the host's (particle_order may have
-        // arranged the arrays).
-        const detail::Particle part{pa.host(p), pa.centre(p), radius, sphere_volume(radius), nullptr, 0};
-        if (detail::exact_sphere_quick(ctx, s, part, add)) continue;
-        s.deposits.clear();
-        detail::exact_particle(ctx, s, particle(pa, p));
-        for (const Deposit& d : s.deposits) add(d.cell, d.volume);
+    return private_field_pass(pa, pl, validating, [&](Scratch& s, auto&& add, const tbb::blocked_range<std::int64_t>& r,
+                                                      auto&& check) {
+      for (std::int64_t first = r.begin(); first < r.end(); first += kChunk) {
+        const std::int64_t end = std::min(first + kChunk, r.end());
+        if (!check(first, end - first)) continue;  // the compute fails
+        for (std::int64_t p = first; p < end; ++p) {
+          const double radius = pa.radius(p);
+          // A sphere needs no rotation key; its index is the host's (particle_order may have
+          // arranged the arrays).
+          const detail::Particle part{pa.host(p), pa.centre(p), radius, sphere_volume(radius), nullptr, 0};
+          if (detail::exact_sphere_quick(ctx, s, part, add)) continue;
+          s.deposits.clear();
+          detail::exact_particle(ctx, s, particle(pa, p));
+          for (const Deposit& d : s.deposits) add(d.cell, d.volume);
+        }
       }
     });
   }
 
-  /// Phase 1 by a pass of the caller's own over the particles (blocks of 256 on the
-  /// engine's threads), adding straight into each thread's private field:
-  /// body(scratch, add, block) with add(cell, volume), cell a cell of fused_grid(). The
-  /// frame of the fused passes.
   /// A fused pass's add into a thread's field: add(cell, volume), and prefetch(cell) of the
   /// line a later add will write (through the lattice's map where kMapped).
   template <bool kMapped>
@@ -633,24 +645,81 @@ struct Engine::Impl {
     }
   };
 
+  /// Phase 1 by a pass of the caller's own over the particles (validate()'s blocks on the
+  /// engine's threads), adding straight into each thread's private field. The frame of the
+  /// fused passes of pmm and exact: body(scratch, add, block, check) with add(cell, volume),
+  /// cell a cell of fused_grid(), and check(first, count) called for spheres [first,
+  /// first + count) before the body computes them, in chunks of kChunk from the block's
+  /// start; where it returns false the chunk holds a bad sphere and the body leaves it.
+  /// With `validating` the pass validates as it goes, so the particles are read from memory
+  /// once: it returns validate()'s Validation (the same tree, the same chunks in order) and
+  /// throws its errors, the accumulator dropping what the pass deposited. Without, the
+  /// particles were validated before and check returns true.
   template <class Body>
-  void private_field_pass(const ParticleArrays& pa, const detail::AccumulationPlan& pl, Body&& body) {
+  Validation private_field_pass(const ParticleArrays& pa, const detail::AccumulationPlan& pl, bool validating,
+                                Body&& body) {
     const std::int64_t* const map = fused_grid().cell_map;
     const bool on_lattice = mesh.kind() == MeshKind::polyhedral;
-    acc.deposit_private(pl, pa.n, [&](auto&& thread_field) {
-      arena->execute([&] {
-        tbb::parallel_for(tbb::blocked_range<std::int64_t>(0, pa.n, 256), [&](const tbb::blocked_range<std::int64_t>& r) {
-          double* const field = thread_field();
-          Scratch& s = scratch.local();
-          if (on_lattice) s.lattice_particles += r.size();
-          if (map)
-            body(s, FieldAdd<true>{field, map}, r);
-          else
-            body(s, FieldAdd<false>{field, nullptr}, r);
-        });
+    const detail::SphereBounds bounds = sphere_bounds();
+    return acc.deposit_private(pl, pa.n, [&](auto&& thread_field) {
+      const Validation v = reduce_particles(pa.n, [&](const tbb::blocked_range<std::int64_t>& r, Validation& a) {
+        double* const field = thread_field();
+        Scratch& s = scratch.local();
+        if (on_lattice) s.lattice_particles += r.size();
+        const auto check = [&](std::int64_t first, std::int64_t count) {
+          return !validating || detail::check_sphere_chunk(pa, first, count, bounds, a);
+        };
+        if (map)
+          body(s, FieldAdd<true>{field, map}, r, check);
+        else
+          body(s, FieldAdd<false>{field, nullptr}, r, check);
       });
-      return 0;
+      if (validating) check_validation(pa, v);
+      return v;
     });
+  }
+
+  /// The spheres' smallest and largest diameters into v from their radii alone, for pmm's
+  /// bank before a pass that validates as it goes (a fourth of validate()'s bytes where the
+  /// radii are packed). False where some radius is bad (validate() then names it); else
+  /// v's diameters are the ones validate() gives.
+  bool sphere_diameters(const ParticleArrays& pa, Validation& v) {
+    struct Range {
+      double lo = std::numeric_limits<double>::infinity(), hi = 0;
+      bool bad = false;
+    };
+    const Range range = arena->execute([&] {
+      return tbb::parallel_reduce(
+          tbb::blocked_range<std::int64_t>(0, pa.n, 16384), Range{},
+          [&](const tbb::blocked_range<std::int64_t>& r, Range a) {
+            const auto take = [&](double radius) {
+              a.lo = std::min(a.lo, radius);
+              a.hi = std::max(a.hi, radius);
+              a.bad |= !(radius > 0);  // NaN too
+            };
+            if (pa.radii_stride == sizeof(double)) {  // packed: a loop the compiler vectorises
+              const double* radii = reinterpret_cast<const double*>(pa.radii);
+              for (std::int64_t p = r.begin(); p < r.end(); ++p) take(radii[p]);
+            } else {
+              for (std::int64_t p = r.begin(); p < r.end(); ++p) take(pa.radius(p));
+            }
+            return a;
+          },
+          [](Range a, const Range& b) {
+            a.lo = std::min(a.lo, b.lo);
+            a.hi = std::max(a.hi, b.hi);
+            a.bad |= b.bad;
+            return a;
+          });
+    });
+    // The volume grows with the radius: particle_values_ok's bounds hold for every radius
+    // when they hold for the extremes.
+    const bool ok = !range.bad && (pa.n == 0 || (range.hi < 1e300 && sphere_volume(range.lo) >=
+                                                                         std::numeric_limits<double>::min() &&
+                                                 sphere_volume(range.hi) < 1e300));
+    v.d_min = 2 * range.lo;
+    v.d_max = 2 * range.hi;
+    return ok;
   }
 
   // --- accumulation plan ----------------------------------------------------------------
@@ -712,12 +781,37 @@ struct Engine::Impl {
     detail::AccumulationPlan pl = plan(pa);
     for (Scratch& sc : scratch) sc.reset_counters();
     const bool fused = fuses_direct(pa, pl);
-    const Validation v = fused ? fused_direct(pa, pl) : validate(pa);
+    const bool fused_particles = !fused && fuses_pmm(pa, pl);
+    const bool fused_exact_pass = !fused && fuses_exact(pa, pl);
+    // The fused passes of pmm and exact validate as they go where they can (exact validates
+    // given quaternions beforehand). pmm's bank needs the diameters first: the last
+    // validated compute's, checked after the pass (a host's spheres keep their sizes from
+    // one step to the next), or on a first compute from the radii alone.
+    Validation v;
+    bool validating = false, assumed_diameters = false;
+    if (fused) {
+      v = fused_direct(pa, pl);
+    } else if (fused_particles) {
+      assumed_diameters = last_diameters.has_value();
+      if (assumed_diameters) {
+        v.d_min = last_diameters->first;
+        v.d_max = last_diameters->second;
+        validating = true;
+      } else {
+        validating = sphere_diameters(pa, v);
+      }
+    } else if (fused_exact_pass) {
+      validating = opts.orientation != Orientation::given;
+    }
+    if (!fused && !validating) v = validate(pa);
     if (pl.fixed_point)  // every rank of a distributed mesh gives the same bound: the same unit
       pl.unit_exponent = fixed_unit_exponent(
           std::max({deterministic_volume_bound, v.shape_volume_max, v.d_max > 0 ? sphere_volume(v.d_max / 2) : 0.0}));
-    const detail::TemplateBank bank =
-        templates.prepare(opts, v.d_min, v.d_max, mesh.smallest_cell_volume(), mesh.largest_cell_volume(), pa.n);
+    const auto template_bank = [&] {
+      return templates.prepare(opts, v.d_min, v.d_max, mesh.smallest_cell_volume(), mesh.largest_cell_volume(),
+                               pa.n);
+    };
+    detail::TemplateBank bank = template_bank();
     if ((opts.method == Method::pmm || opts.method == Method::automatic) && !bank.fixed && !bank.templates.empty())
       log->info("particle_grid=auto: {} to {} sub-elements per particle", bank.templates.front()->size(),
                 bank.templates.back()->size());
@@ -725,11 +819,24 @@ struct Engine::Impl {
 
     const detail::MethodDrivers& drivers = detail::method_drivers(opts.method);
     const detail::MethodContext common{opts, bank, divided};
-    const bool fused_exact_pass = !fused && fuses_exact(pa, pl);
-    if (fused_exact_pass) fused_exact(pa, pl, bank);
-    const bool fused_particles = !fused && fuses_pmm(pa, pl);
     projected_counts = false;
-    if (fused_particles) fused_pmm(pa, pl, bank);
+    if (fused_exact_pass) {
+      const Validation checked = fused_exact(pa, pl, bank, validating);
+      if (validating) v = checked;
+    }
+    if (fused_particles) {
+      const Validation checked = fused_pmm(pa, pl, bank, validating);
+      const bool stale_bank = assumed_diameters && (checked.d_min != v.d_min || checked.d_max != v.d_max);
+      if (validating) v = checked;
+      if (stale_bank) {  // the sizes changed since the last compute: again with their bank
+        log->debug("the spheres' diameters changed: the pass again with their template bank");
+        acc.abandon();
+        for (Scratch& sc : scratch) sc.reset_counters();
+        bank = template_bank();
+        fused_pmm(pa, pl, bank, false);
+      }
+    }
+    last_diameters.emplace(v.d_min, v.d_max);
     if (!fused && !fused_particles && !fused_exact_pass) switch (mesh.kind()) {
       case MeshKind::cartesian:
         run(detail::Context{common, *mesh.cartesian()}, drivers.cartesian, pa, pl);
@@ -1079,6 +1186,9 @@ struct Engine::Impl {
   std::int64_t counted_particles = 0;
   bool fused_pass = false;
   bool projected_counts = false;  ///< pmm's counts took the template's projections on the bank
+  /// The spheres' smallest and largest diameters the last compute's validation found: pmm's
+  /// fused pass takes its bank from them and validates as it goes (compute).
+  std::optional<std::pair<double, double>> last_diameters;
   /// Particles of the last compute that the box lattice's grid path took.
   std::int64_t lattice_particles = 0;
   /// method=auto: particles of the last compute on the fast path, pmm and exact.

@@ -304,6 +304,79 @@ TEST(FusedDirect, ABadParticleAnywhereFailsTheComputeAndLeavesTheOutputAlone) {
     }
 }
 
+// pmm's, auto's and exact's fused passes validate the spheres as they go, chunk by chunk,
+// instead of in a pass of their own; pmm's and auto's take their template bank from the
+// last compute's diameters. The reference: the general loop (accumulation=atomic), which
+// validates first. The report's particle volume is validation's sum: equal only when the
+// same chunks are summed in the same tree.
+TEST(FusedPasses, ValidateAsTheyGoWithTheReportOfAValidationFirst) {
+  for (const char* method : {"pmm", "auto", "exact"})
+    for (const int n : {1, 6, 257, 4099})
+      for (const int threads : {1, 2})
+        for (const bool strided : {false, true}) {
+          const Particles p = random_spheres(60 + n, n, -0.6, 10.6, 0.1, 0.4);  // some beyond the grid
+          const Records records(p);
+          const std::string o = std::string("method=") + method + " outside=nearest threads=" + std::to_string(threads);
+          SCOPED_TRACE(o + " n=" + std::to_string(n) + (strided ? " strided" : ""));
+          Engine fused(grid(1.0, 10, 10, 10)), general(grid(1.0, 10, 10, 10));
+          fused.configure(o + " accumulation=private");
+          general.configure(o + " accumulation=atomic");
+          std::vector<double> a(fused.cell_count(), -1.0), b(general.cell_count(), -1.0);
+          for (int compute = 0; compute < 2; ++compute) {  // the second takes the first's diameters
+            fused.compute(strided ? records.view() : p.view(), a);
+            general.compute(p.view(), b);
+            expect_same_field(a, b, 1e-13 * p.volume(), o);
+            const Report& ra = fused.last_report();
+            const Report& rb = general.last_report();
+            EXPECT_EQ(ra.particle_volume, rb.particle_volume);
+            EXPECT_EQ(ra.outside_particles, rb.outside_particles);
+            // The same bank. (Not the same sub-element count: with several templates the
+            // chunks' windows take the bank's widest reach, so a sphere the general loop
+            // puts in one cell may be counted, its other octants given nothing.)
+            EXPECT_EQ(ra.particle_grid_min, rb.particle_grid_min);
+            EXPECT_EQ(ra.particle_grid_max, rb.particle_grid_max);
+            if (n > 1000) EXPECT_GT(ra.outside_particles, 0);
+          }
+        }
+}
+
+// Spheres that change size between computes: the pass that took the last compute's
+// diameters for its bank is done again with the bank of the new ones. Every compute equals,
+// to the bit (one thread), a new engine's first compute of the same spheres, which takes its
+// diameters from the radii before the pass.
+TEST(FusedPasses, SpheresThatChangeSizeTakeTheBankOfTheirNewSizes) {
+  const Particles small = random_spheres(70, 3000, 0.5, 9.5, 0.1, 0.2);
+  const Particles large = random_spheres(71, 3000, 0.5, 9.5, 0.25, 0.4);
+  Particles same_range = small;  // the same smallest and largest, others changed
+  std::size_t lo = 0, hi = 0;
+  for (std::size_t i = 0; i < small.radii.size(); ++i) {
+    if (small.radii[i] < small.radii[lo]) lo = i;
+    if (small.radii[i] > small.radii[hi]) hi = i;
+  }
+  for (std::size_t i = 0; i < same_range.radii.size(); ++i)
+    if (i != lo && i != hi) same_range.radii[i] = 0.5 * (small.radii[lo] + small.radii[hi]);
+  for (const char* method : {"pmm", "auto"}) {
+    SCOPED_TRACE(method);
+    const std::string o = std::string("method=") + method + " threads=1";
+    Engine e(grid(1.0, 10, 10, 10));
+    e.configure(o);
+    std::vector<double> out(e.cell_count());
+    double grid_of_small = 0;
+    for (const Particles* p : std::initializer_list<const Particles*>{&small, &large, &small, &same_range, &small}) {
+      e.compute(p->view(), out);
+      Engine fresh(grid(1.0, 10, 10, 10));
+      EXPECT_EQ(out, run(fresh, *p, o));
+      EXPECT_EQ(e.last_report().sub_elements, fresh.last_report().sub_elements);
+      EXPECT_EQ(e.last_report().particle_grid_max, fresh.last_report().particle_grid_max);
+      EXPECT_EQ(e.last_report().particle_volume, fresh.last_report().particle_volume);
+      if (p == &small) grid_of_small = double(e.last_report().particle_grid_max);
+    }
+    Engine check(grid(1.0, 10, 10, 10));
+    run(check, large, o);
+    EXPECT_NE(double(check.last_report().particle_grid_max), grid_of_small) << "the sizes take another bank";
+  }
+}
+
 // direct's fused pass with two threads on a grid of kBinnedCells cells sorts its deposits into
 // bins by regions of cells. The reference: each sphere's volume added to the cell holding
 // its centre by floor, in one loop (outside=drop, no periodic axis), and the general loop
