@@ -424,6 +424,7 @@ Record record_of(const BenchRow& r) {
           {"speedup_min", r.speedup_min},
           {"speedup_max", r.speedup_max},
           {"control_speedup", r.control_speedup},
+          {"direct_ratio", r.direct_ratio},
           {"bandwidth_ms", r.bandwidth_ms},
           {"store_ms", r.store_ms},
           {"scatter_ms", r.scatter_ms},
@@ -511,19 +512,19 @@ std::string cell_text(const char* format, double v) {
   return buf;
 }
 
-constexpr const char* kRowFormat = "%8s %4s %-14s %3s %9s %10s %8s %8s %7s %7s %6s %7s %5s %7s %7s %9s %8s\n";
+constexpr const char* kRowFormat = "%8s %4s %-14s %3s %9s %10s %8s %8s %7s %7s %6s %7s %5s %6s %7s %7s %9s %8s\n";
 
 void print_header(std::ostream& out) {
   char line[256];
   std::snprintf(line, sizeof line, kRowFormat, "N", "chi", "method", "thr", "cells", "ms", "part/s", "subel/s",
-                "subel/p", "B/part", "B/cell", "speedup", "ctl", "x bw", "x store", "x scatter", "x locate");
+                "subel/p", "B/part", "B/cell", "speedup", "ctl", "x dir", "x bw", "x store", "x scatter", "x locate");
   out << line << std::string(std::char_traits<char>::length(line) - 1, '-') << '\n';
 }
 
 void print_line(std::ostream& out, std::int64_t n, double chi, const std::string& method, int threads,
                 std::int64_t cells, double ms, double sub_elements, double bytes_per_particle, double bytes_per_cell,
-                double speedup, double control_speedup, double x_bandwidth, double x_store, double x_scatter,
-                double x_locate) {
+                double speedup, double control_speedup, double direct_ratio, double x_bandwidth, double x_store,
+                double x_scatter, double x_locate) {
   const double per_s = 1e3 / ms;
   char line[256];
   std::snprintf(line, sizeof line, kRowFormat, std::to_string(n).c_str(), cell_text("%.3g", chi).c_str(),
@@ -532,7 +533,7 @@ void print_line(std::ostream& out, std::int64_t n, double chi, const std::string
                 cell_text("%.3g", sub_elements * per_s).c_str(), cell_text("%.4g", sub_elements / double(n)).c_str(),
                 cell_text("%.1f", bytes_per_particle).c_str(), cell_text("%.1f", bytes_per_cell).c_str(),
                 cell_text("%.2f", speedup).c_str(), cell_text("%.2f", control_speedup).c_str(),
-                cell_text("%.1f", x_bandwidth).c_str(),
+                cell_text("%.2f", direct_ratio).c_str(), cell_text("%.1f", x_bandwidth).c_str(),
                 cell_text("%.2f", x_store).c_str(), cell_text("%.2f", x_scatter).c_str(), cell_text("%.2f", x_locate).c_str());
   out << line << std::flush;
 }
@@ -747,125 +748,136 @@ BenchOutcome run_bench(const BenchCommand& c) {
             const int t = limit.threads;
             const double subel = double(limit.locate_sub_elements);
             print_line(*c.table, n, chi, "(bw)", t, ncells, limit.bandwidth_ms, kNaN, kNaN, kNaN,
-                       limit.bandwidth_speedup, kNaN, kNaN, kNaN, kNaN, kNaN);
+                       limit.bandwidth_speedup, kNaN, kNaN, kNaN, kNaN, kNaN, kNaN);
             print_line(*c.table, n, chi, "(store)", t, ncells, limit.store_ms, double(n), kNaN, kNaN,
-                       limit.store_speedup, kNaN, kNaN, kNaN, kNaN, kNaN);
+                       limit.store_speedup, kNaN, kNaN, kNaN, kNaN, kNaN, kNaN);
             print_line(*c.table, n, chi, "(scatter)", t, ncells, limit.scatter_ms, subel, kNaN, kNaN,
-                       limit.scatter_speedup, kNaN, kNaN, kNaN, kNaN, kNaN);
+                       limit.scatter_speedup, kNaN, kNaN, kNaN, kNaN, kNaN, kNaN);
             print_line(*c.table, n, chi, "(locate)", t, ncells, limit.locate_ms, subel, kNaN, kNaN,
-                       limit.locate_speedup, kNaN, kNaN, kNaN, kNaN, kNaN);
+                       limit.locate_speedup, kNaN, kNaN, kNaN, kNaN, kNaN, kNaN);
           }
         }
       }
 
-      for (const std::string& method : methods) {
-        // One engine per thread count and particle order, each created and warmed up in turn
-        // (its memory measured alone), then timed in rounds that take every engine once.
-        struct Timed {
-          std::unique_ptr<vfe::Engine> engine;
-          std::int64_t before_engine = -1, after_engine = -1, before_compute = -1, after_compute = -1;
-          vfe::Report rep{};
-        };
-        const std::size_t norders = orders.size();
-        std::vector<Timed> timed(threads.size() * norders);  // [thread count][order]
-        for (std::size_t i = 0; i < timed.size(); ++i) {
-          Timed& e = timed[i];
-          const int t = threads[i / norders];
-          const std::string& order = orders[i % norders];
-          return_free_memory();
-          e.before_engine = resident_bytes();
-          e.engine = std::make_unique<vfe::Engine>(grid);
-          e.after_engine = resident_bytes();
-          e.engine->configure(common + " method=" + method + " threads=" + std::to_string(t) +
-                              (order.empty() ? "" : " particle_order=" + order));
-          return_free_memory();
-          e.before_compute = resident_bytes();
-          const auto t_warm = Clock::now();
-          e.engine->compute(view, field);
-          const double warm_ms = ms_since(t_warm);
-          e.after_compute = resident_bytes();
-          if (warm_ms > 5000)
-            log->info("{}, {} thread(s): warm-up took {:.1f} s; {} timed computes follow", method, t, warm_ms * 1e-3,
-                      c.repeats);
-          e.rep = e.engine->last_report();
-          warn_overfull(*log, scene.name + " chi=" + printf_number("%.3g", chi), method, overfull_facts(*e.engine),
-                        e.rep.particle_volume);
-        }
-        // The engines, then the control of each thread count, in every round.
-        const std::vector<std::vector<double>> ms =
-            time_rounds(timed.size() + control_scratch.size(), c.repeats, [&](std::size_t i) {
-              if (i < timed.size())
-                timed[i].engine->compute(view, field);
-              else
-                control_pass(i - timed.size());
-            });
-        for (std::size_t i = 0; i < timed.size(); ++i) {
-          const std::size_t k = i / norders;
-          const int t = threads[k];
-          const BenchLimit& limit = limits[k];
-          BenchRow row;
-          const vfe::Engine& engine = *timed[i].engine;
-          const vfe::Report& rep = timed[i].rep;
-          const std::int64_t before_engine = timed[i].before_engine, after_engine = timed[i].after_engine;
-          const std::int64_t before_compute = timed[i].before_compute, after_compute = timed[i].after_compute;
-          const double median_ms = median(ms[i]);
-          const auto [fastest, slowest] = std::minmax_element(ms[i].begin(), ms[i].end());
-          const std::string label = norders > 1 ? method + "/" + orders[i % norders] : method;
-          row.particle_order = engine.option("particle_order");
-          row.ordered_blocks = std::int64_t(engine.last_report_value("ordered_blocks"));
-          const bool have_memory = before_engine >= 0 && before_compute >= 0;
-          row.scene = scene.name;
-          row.order = c.order;
-          row.dispersity = scene.dispersity;
-          row.method = method;
-          row.options = engine.options();
-          row.particles = n;
-          row.chi = chi;
-          row.cell_size = h;
-          row.solid_fraction = scene.solid_fraction;
-          row.grid = grid.cells;
-          row.cells = ncells;
-          row.threads = t;
-          row.repeats = c.repeats;
-          row.time_median_ms = median_ms;
-          row.time_min_ms = *fastest;
-          row.time_max_ms = *slowest;
-          row.particles_per_s = double(n) / (median_ms * 1e-3);
-          row.sub_elements = rep.sub_elements;
-          row.sub_elements_per_s = double(rep.sub_elements) / (median_ms * 1e-3);
-          row.sub_elements_per_particle = double(rep.sub_elements) / double(n);
-          row.fast_path_particles = rep.fast_path_particles;
-          row.particle_grid_min = rep.particle_grid_min;
-          row.particle_grid_max = rep.particle_grid_max;
-          row.volume_error = std::abs(rep.deposited_volume + rep.dropped_volume - rep.particle_volume) /
-                             rep.particle_volume;
-          row.engine_bytes = have_memory ? after_engine - before_engine : -1;
-          row.compute_bytes = have_memory ? after_compute - before_compute : -1;
-          row.bytes_per_cell = have_memory ? double(row.engine_bytes) / double(ncells) : kNaN;
-          row.bytes_per_particle = have_memory ? double(row.compute_bytes) / double(n) : kNaN;
-          row.peak_rss_bytes = peak_resident_bytes();
-          const RoundRatio speedup =
-              speedup_over(one < threads.size() ? &ms[one * norders + i % norders] : nullptr, ms[i], t);
-          row.speedup = speedup.median;
-          row.speedup_min = speedup.min;
-          row.speedup_max = speedup.max;
-          row.control_speedup = control ? speedup_over(&ms[timed.size() + one], ms[timed.size() + k], t).median : kNaN;
-          row.bandwidth_ms = limit.bandwidth_ms;
-          row.store_ms = limit.store_ms;
-          row.scatter_ms = limit.scatter_ms;
-          row.locate_ms = limit.locate_ms;
-          row.x_bandwidth = row.time_median_ms / limit.bandwidth_ms;
-          row.x_store = row.time_median_ms / limit.store_ms;
-          row.x_scatter = row.time_median_ms / limit.scatter_ms;
-          row.x_locate = row.time_median_ms / limit.locate_ms;
-          out.rows.push_back(row);
-          log->info("[{}/{}] N = {}, chi = {}, {}, {} thread(s): {:.3f} ms per compute", out.rows.size(), total_rows,
-                    n, chi, label, t, row.time_median_ms);
-          if (c.table)
-            print_line(*c.table, n, chi, label, t, ncells, row.time_median_ms, double(row.sub_elements),
-                       row.bytes_per_particle, row.bytes_per_cell, row.speedup, row.control_speedup, row.x_bandwidth,
-                       row.x_store, row.x_scatter, row.x_locate);
-        }
+      // One engine per method, thread count and particle order, each created and warmed up in
+      // turn (its memory measured alone), then timed in rounds that take every engine once
+      // and the control of each thread count after them: a method's ratio to direct and its
+      // speed-up are ratios of times taken moments apart.
+      struct Timed {
+        std::unique_ptr<vfe::Engine> engine;
+        std::int64_t before_engine = -1, after_engine = -1, before_compute = -1, after_compute = -1;
+        vfe::Report rep{};
+      };
+      const std::size_t norders = orders.size(), per_method = threads.size() * norders;
+      std::vector<Timed> timed(methods.size() * per_method);  // [method][thread count][order]
+      for (std::size_t i = 0; i < timed.size(); ++i) {
+        Timed& e = timed[i];
+        const std::string& method = methods[i / per_method];
+        const int t = threads[i % per_method / norders];
+        const std::string& order = orders[i % norders];
+        return_free_memory();
+        e.before_engine = resident_bytes();
+        e.engine = std::make_unique<vfe::Engine>(grid);
+        e.after_engine = resident_bytes();
+        e.engine->configure(common + " method=" + method + " threads=" + std::to_string(t) +
+                            (order.empty() ? "" : " particle_order=" + order));
+        return_free_memory();
+        e.before_compute = resident_bytes();
+        const auto t_warm = Clock::now();
+        e.engine->compute(view, field);
+        const double warm_ms = ms_since(t_warm);
+        e.after_compute = resident_bytes();
+        if (warm_ms > 5000)
+          log->info("{}, {} thread(s): warm-up took {:.1f} s; {} timed computes follow", method, t, warm_ms * 1e-3,
+                    c.repeats);
+        e.rep = e.engine->last_report();
+        warn_overfull(*log, scene.name + " chi=" + printf_number("%.3g", chi), method, overfull_facts(*e.engine),
+                      e.rep.particle_volume);
+      }
+      // The engines, then the control of each thread count, in every round.
+      int round = 0;
+      const std::vector<std::vector<double>> ms =
+          time_rounds(timed.size() + control_scratch.size(), c.repeats, [&](std::size_t i) {
+            if (i == 0) log->info("N = {}, chi = {}: round {} of {}", n, chi, ++round, c.repeats);
+            if (i < timed.size())
+              timed[i].engine->compute(view, field);
+            else
+              control_pass(i - timed.size());
+          });
+      // direct's engines in the rounds, per thread count and order: the base of the ratios to direct.
+      const auto direct_at = std::find(methods.begin(), methods.end(), "direct");
+      const std::size_t direct_first =
+          direct_at == methods.end() ? timed.size() : std::size_t(direct_at - methods.begin()) * per_method;
+      for (std::size_t i = 0; i < timed.size(); ++i) {
+        const std::string& method = methods[i / per_method];
+        const std::size_t k = i % per_method / norders;
+        const int t = threads[k];
+        const BenchLimit& limit = limits[k];
+        BenchRow row;
+        const vfe::Engine& engine = *timed[i].engine;
+        const vfe::Report& rep = timed[i].rep;
+        const std::int64_t before_engine = timed[i].before_engine, after_engine = timed[i].after_engine;
+        const std::int64_t before_compute = timed[i].before_compute, after_compute = timed[i].after_compute;
+        const double median_ms = median(ms[i]);
+        const auto [fastest, slowest] = std::minmax_element(ms[i].begin(), ms[i].end());
+        const std::string label = norders > 1 ? method + "/" + orders[i % norders] : method;
+        row.particle_order = engine.option("particle_order");
+        row.ordered_blocks = std::int64_t(engine.last_report_value("ordered_blocks"));
+        const bool have_memory = before_engine >= 0 && before_compute >= 0;
+        row.scene = scene.name;
+        row.order = c.order;
+        row.dispersity = scene.dispersity;
+        row.method = method;
+        row.options = engine.options();
+        row.particles = n;
+        row.chi = chi;
+        row.cell_size = h;
+        row.solid_fraction = scene.solid_fraction;
+        row.grid = grid.cells;
+        row.cells = ncells;
+        row.threads = t;
+        row.repeats = c.repeats;
+        row.time_median_ms = median_ms;
+        row.time_min_ms = *fastest;
+        row.time_max_ms = *slowest;
+        row.particles_per_s = double(n) / (median_ms * 1e-3);
+        row.sub_elements = rep.sub_elements;
+        row.sub_elements_per_s = double(rep.sub_elements) / (median_ms * 1e-3);
+        row.sub_elements_per_particle = double(rep.sub_elements) / double(n);
+        row.fast_path_particles = rep.fast_path_particles;
+        row.particle_grid_min = rep.particle_grid_min;
+        row.particle_grid_max = rep.particle_grid_max;
+        row.volume_error = std::abs(rep.deposited_volume + rep.dropped_volume - rep.particle_volume) /
+                           rep.particle_volume;
+        row.engine_bytes = have_memory ? after_engine - before_engine : -1;
+        row.compute_bytes = have_memory ? after_compute - before_compute : -1;
+        row.bytes_per_cell = have_memory ? double(row.engine_bytes) / double(ncells) : kNaN;
+        row.bytes_per_particle = have_memory ? double(row.compute_bytes) / double(n) : kNaN;
+        row.peak_rss_bytes = peak_resident_bytes();
+        const std::size_t method_first = i - i % per_method;
+        const RoundRatio speedup =
+            speedup_over(one < threads.size() ? &ms[method_first + one * norders + i % norders] : nullptr, ms[i], t);
+        row.speedup = speedup.median;
+        row.speedup_min = speedup.min;
+        row.speedup_max = speedup.max;
+        row.control_speedup = control ? speedup_over(&ms[timed.size() + one], ms[timed.size() + k], t).median : kNaN;
+        row.direct_ratio =
+            direct_first < timed.size() ? round_ratio(ms[i], ms[direct_first + i % per_method]).median : kNaN;
+        row.bandwidth_ms = limit.bandwidth_ms;
+        row.store_ms = limit.store_ms;
+        row.scatter_ms = limit.scatter_ms;
+        row.locate_ms = limit.locate_ms;
+        row.x_bandwidth = row.time_median_ms / limit.bandwidth_ms;
+        row.x_store = row.time_median_ms / limit.store_ms;
+        row.x_scatter = row.time_median_ms / limit.scatter_ms;
+        row.x_locate = row.time_median_ms / limit.locate_ms;
+        out.rows.push_back(row);
+        log->info("[{}/{}] N = {}, chi = {}, {}, {} thread(s): {:.3f} ms per compute", out.rows.size(), total_rows,
+                  n, chi, label, t, row.time_median_ms);
+        if (c.table)
+          print_line(*c.table, n, chi, label, t, ncells, row.time_median_ms, double(row.sub_elements),
+                     row.bytes_per_particle, row.bytes_per_cell, row.speedup, row.control_speedup, row.direct_ratio,
+                     row.x_bandwidth, row.x_store, row.x_scatter, row.x_locate);
       }
       sink_index_sums(control_scratch);
     }
@@ -873,8 +885,9 @@ BenchOutcome run_bench(const BenchCommand& c) {
   out.peak_rss_bytes = peak_resident_bytes();
   if (c.table)
     *c.table << "(bw: read centres and radii, clear the field; store: add each volume to its centre's cell; scatter: pmm's cell index of every sub-element and "
-                "an add there; locate: the index only; ctl: the speed-up of a short locate pass timed in the method's own rounds, "
-                "what the machine gave; x ...: time / that limit; B/part: RSS growth over the first "
+                "an add there; locate: the index only; ctl: the speed-up of a short locate pass timed in the same rounds, "
+                "what the machine gave; x dir: time / direct's in the same round, the median over the rounds; "
+                "x ...: time / that limit; B/part: RSS growth over the first "
                 "compute / N; B/cell: RSS growth on creating the engine / cells)\npeak RSS: "
              << cell_text("%.1f", double(out.peak_rss_bytes) / (1 << 20)) << " MiB\n"
              << std::flush;

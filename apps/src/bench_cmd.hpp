@@ -90,6 +90,10 @@ struct BenchRow {
   /// pass (no serial part, no shared writes) timed after the engines in every round; NaN
   /// for a 1-thread row, without a 1-thread count or without the limits.
   double control_speedup = 0;
+  /// The median over the timed rounds of this engine's time / direct's at the same thread
+  /// count and particle order in the same round (1 for direct itself); NaN without direct
+  /// among the methods.
+  double direct_ratio = 0;
   /// The limits at the same (scene, N, chi, threads) and time_median_ms as a multiple of each.
   double bandwidth_ms = 0, store_ms = 0, scatter_ms = 0, locate_ms = 0;
   double x_bandwidth = 0, x_store = 0, x_scatter = 0, x_locate = 0;

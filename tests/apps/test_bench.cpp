@@ -272,6 +272,40 @@ TEST(Bench, ThreadCountsAreTimedSideBySideWithPairedSpeedups) {
   EXPECT_TRUE(std::isnan(bare.rows[1].control_speedup));
 }
 
+// Every method's engines are timed in the same rounds as direct's: a row's ratio to direct
+// is the median over the rounds of its time over direct's at the same thread count and
+// particle order, so it lies within the bounds the two rows' least and greatest times give.
+TEST(Bench, EachMethodsRatioToDirectIsTakenWithinTheRounds) {
+  test::TempDir dir;
+  BenchCommand c = tiny_command(dir / "bench");
+  c.chi = {2};
+  c.methods = {"pmm", "direct"};  // direct not first
+  c.threads = {1, 2};
+  c.particle_orders = {"input", "blocked"};
+  c.repeats = 3;
+  c.limits = false;
+  const BenchOutcome out = run_bench(c);
+  ASSERT_EQ(out.rows.size(), 8u);  // per method, thread count and order
+  for (std::size_t i = 0; i < 4; ++i) {
+    const BenchRow& pmm = out.rows[i];
+    const BenchRow& direct = out.rows[4 + i];
+    SCOPED_TRACE(std::to_string(pmm.threads) + " " + pmm.particle_order);
+    ASSERT_EQ(pmm.method, "pmm");
+    ASSERT_EQ(direct.method, "direct");
+    ASSERT_EQ(pmm.threads, direct.threads);
+    ASSERT_EQ(pmm.particle_order, direct.particle_order);
+    EXPECT_EQ(direct.direct_ratio, 1.0);
+    EXPECT_GE(pmm.direct_ratio, pmm.time_min_ms / direct.time_max_ms);
+    EXPECT_LE(pmm.direct_ratio, pmm.time_max_ms / direct.time_min_ms);
+  }
+  EXPECT_NE(test::read_text(out.output / "bench.csv").find("direct_ratio"), std::string::npos);
+  // Without direct there is no ratio.
+  c.methods = {"pmm"};
+  c.particle_orders = {};
+  const BenchOutcome alone = run_bench(c);
+  for (const BenchRow& r : alone.rows) EXPECT_TRUE(std::isnan(r.direct_ratio));
+}
+
 TEST(Bench, AllIsEveryEngineMethod) {
   test::TempDir dir;
   BenchCommand c = tiny_command(dir / "bench");
