@@ -35,6 +35,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cfenv>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -343,9 +344,15 @@ struct Engine::Impl {
 
   /// Throws for the first bad particle or a total volume doubles cannot hold.
   void check_validation(const ParticleArrays& pa, const Validation& v) const {
-    if (v.first_bad != std::numeric_limits<std::int64_t>::max())
-      throw Error(VFE_ERROR_INVALID_ARGUMENT,
-                  "particle " + std::to_string(v.first_bad) + ": " + particle_problem(pa, v.first_bad));
+    if (v.first_bad != std::numeric_limits<std::int64_t>::max()) {
+      // The message computes with the bad values (a NaN compared, a radius cubed): with the
+      // host's floating-point traps held, and its flags as they were afterwards.
+      std::fenv_t host_env;
+      std::feholdexcept(&host_env);
+      const std::string problem = particle_problem(pa, v.first_bad);
+      std::fesetenv(&host_env);
+      throw Error(VFE_ERROR_INVALID_ARGUMENT, "particle " + std::to_string(v.first_bad) + ": " + problem);
+    }
     if (!std::isfinite(v.volume))
       throw Error(VFE_ERROR_INVALID_ARGUMENT,
                   "the particles' total volume overflows doubles; pass sizes in smaller units");
@@ -367,6 +374,10 @@ struct Engine::Impl {
       for (std::int64_t p = r.begin(); p < r.end(); ++p) {
         const double* c = reinterpret_cast<const double*>(pa.centres + p * pa.centres_stride);
         const double rad = pa.radius(p);
+        if (!detail::particle_bits_ok(c, rad)) {  // before any arithmetic on them
+          acc.first_bad = std::min(acc.first_bad, p);
+          continue;
+        }
         bool sphere = true;
         double vol;
         if (pa.shape_ids) {
@@ -383,8 +394,11 @@ struct Engine::Impl {
         bool ok = detail::particle_values_ok(c, rad, vol);
         if (ok && given) {
           const double* q = pa.orientation(p);
-          const double nn = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
-          ok = std::isfinite(nn) && nn > 0;
+          // Components whose squares cannot overflow, then a norm that is not zero.
+          using detail::magnitude_below;
+          ok = magnitude_below(q[0], 1e150) && magnitude_below(q[1], 1e150) && magnitude_below(q[2], 1e150) &&
+               magnitude_below(q[3], 1e150) &&
+               q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3] > 0;
         }
         if (!ok) {
           acc.first_bad = std::min(acc.first_bad, p);
@@ -519,8 +533,10 @@ struct Engine::Impl {
            !pl.uses_blocks() && !pl.touched_only;
   }
 
+  /// bank_d_min, bank_d_max: the diameters the bank was made for (private_field_pass).
   Validation fused_pmm(const ParticleArrays& pa, const detail::AccumulationPlan& pl, const detail::TemplateBank& bank,
-                       bool validating) {
+                       bool validating, double bank_d_min = 0,
+                       double bank_d_max = std::numeric_limits<double>::infinity()) {
     const detail::Context ctx{detail::MethodContext{opts, bank, divided}, *fused_grid().grid};
     const detail::PmmQuick quick(ctx, true);
     const bool hybrid = opts.method == Method::automatic;
@@ -551,10 +567,10 @@ struct Engine::Impl {
         detail::QuickWindows planned;
         for (std::int64_t chunk = r.begin(); chunk < r.end(); chunk += kChunk) {
           const std::int64_t n = std::min(kChunk, r.end() - chunk);
-          // The planning first: it asks for the spheres' lines ahead. It computes on any
-          // values; a bad sphere's chunk goes no further.
+          // The check first: the planning would divide by a radius of 0 (a host trapping
+          // floating-point exceptions would take a signal, not the error).
+          if (!check(chunk, n)) continue;  // the compute fails, or the bank is another's
           detail::plan_sphere_windows(pa, chunk, n, *g, planned);
-          if (!check(chunk, n)) continue;  // the compute fails
           detail::PmmQuick::Tally tally;
           auto finish = [&](auto&& taken) {
             quick.finish_chunk(
@@ -597,7 +613,7 @@ struct Engine::Impl {
           general(p);
         }
       }
-    });
+    }, bank_d_min, bank_d_max);
   }
 
   /// exact on a Cartesian grid (no periodic axis) with spheres and private fields: a sphere
@@ -654,20 +670,29 @@ struct Engine::Impl {
   /// With `validating` the pass validates as it goes, so the particles are read from memory
   /// once: it returns validate()'s Validation (the same tree, the same chunks in order) and
   /// throws its errors, the accumulator dropping what the pass deposited. Without, the
-  /// particles were validated before and check returns true.
+  /// particles were validated before and check returns true. A pass whose template bank was
+  /// made for diameters [bank_d_min, bank_d_max] computes nothing from the first chunk that
+  /// holds a sphere outside them: its caller runs it again with the right bank, and until
+  /// then only the validation is worth its cost (a bank for larger spheres may give small
+  /// ones thousands of sub-elements each).
   template <class Body>
   Validation private_field_pass(const ParticleArrays& pa, const detail::AccumulationPlan& pl, bool validating,
-                                Body&& body) {
+                                Body&& body, double bank_d_min = 0,
+                                double bank_d_max = std::numeric_limits<double>::infinity()) {
     const std::int64_t* const map = fused_grid().cell_map;
     const bool on_lattice = mesh.kind() == MeshKind::polyhedral;
     const detail::SphereBounds bounds = sphere_bounds();
+    std::atomic<bool> beyond_bank{false};
     return acc.deposit_private(pl, pa.n, [&](auto&& thread_field) {
       const Validation v = reduce_particles(pa.n, [&](const tbb::blocked_range<std::int64_t>& r, Validation& a) {
         double* const field = thread_field();
         Scratch& s = scratch.local();
         if (on_lattice) s.lattice_particles += r.size();
         const auto check = [&](std::int64_t first, std::int64_t count) {
-          return !validating || detail::check_sphere_chunk(pa, first, count, bounds, a);
+          if (!validating) return true;
+          const bool good = detail::check_sphere_chunk(pa, first, count, bounds, a);
+          if (a.d_min < bank_d_min || a.d_max > bank_d_max) beyond_bank.store(true, std::memory_order_relaxed);
+          return good && !beyond_bank.load(std::memory_order_relaxed);
         };
         if (map)
           body(s, FieldAdd<true>{field, map}, r, check);
@@ -693,9 +718,12 @@ struct Engine::Impl {
           tbb::blocked_range<std::int64_t>(0, pa.n, 16384), Range{},
           [&](const tbb::blocked_range<std::int64_t>& r, Range a) {
             const auto take = [&](double radius) {
-              a.lo = std::min(a.lo, radius);
-              a.hi = std::max(a.hi, radius);
-              a.bad |= !(radius > 0);  // NaN too
+              // Bounds from the bits first (particle_bits_ok): a NaN must not reach a comparison.
+              const bool in_bounds = detail::radius_in_bounds(radius);
+              a.bad |= !in_bounds;
+              const double r = in_bounds ? radius : 1.0;  // bad: validate() runs, the range is not used
+              a.lo = std::min(a.lo, r);
+              a.hi = std::max(a.hi, r);
             };
             if (pa.radii_stride == sizeof(double)) {  // packed: a loop the compiler vectorises
               const double* radii = reinterpret_cast<const double*>(pa.radii);
@@ -825,7 +853,8 @@ struct Engine::Impl {
       if (validating) v = checked;
     }
     if (fused_particles) {
-      const Validation checked = fused_pmm(pa, pl, bank, validating);
+      const Validation checked = assumed_diameters ? fused_pmm(pa, pl, bank, validating, v.d_min, v.d_max)
+                                                   : fused_pmm(pa, pl, bank, validating);
       const bool stale_bank = assumed_diameters && (checked.d_min != v.d_min || checked.d_max != v.d_max);
       if (validating) v = checked;
       if (stale_bank) {  // the sizes changed since the last compute: again with their bank
@@ -836,7 +865,11 @@ struct Engine::Impl {
         fused_pmm(pa, pl, bank, false);
       }
     }
-    last_diameters.emplace(v.d_min, v.d_max);
+    // Only a range of spheres makes a bank (none, or shapes alone, leave d_max = 0).
+    if (v.d_max > 0)
+      last_diameters.emplace(v.d_min, v.d_max);
+    else
+      last_diameters.reset();
     if (!fused && !fused_particles && !fused_exact_pass) switch (mesh.kind()) {
       case MeshKind::cartesian:
         run(detail::Context{common, *mesh.cartesian()}, drivers.cartesian, pa, pl);

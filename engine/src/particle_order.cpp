@@ -66,7 +66,12 @@ ParticleArrays BlockedOrder::arrange(tbb::task_arena& arena, const ParticleArray
       bool good = true;
       for (std::int64_t first = r * kRange; first < end; first += kSphereChunk) {
         const std::int64_t k_end = std::min(kSphereChunk, end - first);
-        good &= check_sphere_chunk(pa, first, k_end, open, v);
+        // A bad chunk leaves the order as it is (the compute then fails): its values are not
+        // taken into slabs (a NaN compared would raise an exception a host may trap).
+        if (!check_sphere_chunk(pa, first, k_end, open, v)) {
+          good = false;
+          continue;
+        }
         for (std::int64_t k = 0; k < k_end; ++k) ++count[slabs.of(z_of(first + k))];
       }
       bad_[static_cast<std::size_t>(r)] = !good;

@@ -343,7 +343,8 @@ TEST(FusedPasses, ValidateAsTheyGoWithTheReportOfAValidationFirst) {
 // Spheres that change size between computes: the pass that took the last compute's
 // diameters for its bank is done again with the bank of the new ones. Every compute equals,
 // to the bit (one thread), a new engine's first compute of the same spheres, which takes its
-// diameters from the radii before the pass.
+// diameters from the radii before the pass. A compute of no spheres leaves no diameters to
+// take (a bank of none crashed the next compute).
 TEST(FusedPasses, SpheresThatChangeSizeTakeTheBankOfTheirNewSizes) {
   const Particles small = random_spheres(70, 3000, 0.5, 9.5, 0.1, 0.2);
   const Particles large = random_spheres(71, 3000, 0.5, 9.5, 0.25, 0.4);
@@ -362,7 +363,9 @@ TEST(FusedPasses, SpheresThatChangeSizeTakeTheBankOfTheirNewSizes) {
     e.configure(o);
     std::vector<double> out(e.cell_count());
     double grid_of_small = 0;
-    for (const Particles* p : std::initializer_list<const Particles*>{&small, &large, &small, &same_range, &small}) {
+    const Particles none;
+    for (const Particles* p :
+         std::initializer_list<const Particles*>{&none, &small, &large, &small, &same_range, &none, &large, &small}) {
       e.compute(p->view(), out);
       Engine fresh(grid(1.0, 10, 10, 10));
       EXPECT_EQ(out, run(fresh, *p, o));
