@@ -35,7 +35,6 @@
 
 #include <algorithm>
 #include <atomic>
-#include <cfenv>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -345,12 +344,11 @@ struct Engine::Impl {
   /// Throws for the first bad particle or a total volume doubles cannot hold.
   void check_validation(const ParticleArrays& pa, const Validation& v) const {
     if (v.first_bad != std::numeric_limits<std::int64_t>::max()) {
-      // The message computes with the bad values (a NaN compared, a radius cubed): with the
-      // host's floating-point traps held, and its flags as they were afterwards.
-      std::fenv_t host_env;
-      std::feholdexcept(&host_env);
-      const std::string problem = particle_problem(pa, v.first_bad);
-      std::fesetenv(&host_env);
+      // The message computes with the bad values (a NaN compared, a radius cubed).
+      const std::string problem = [&] {
+        const detail::HeldFloatingPointTraps held;
+        return particle_problem(pa, v.first_bad);
+      }();
       throw Error(VFE_ERROR_INVALID_ARGUMENT, "particle " + std::to_string(v.first_bad) + ": " + problem);
     }
     if (!std::isfinite(v.volume))
@@ -371,13 +369,10 @@ struct Engine::Impl {
     }
     const auto nshapes = static_cast<std::int32_t>(shapes.size());
     const Validation v = reduce_particles(pa.n, [&](const tbb::blocked_range<std::int64_t>& r, Validation& acc) {
+      const detail::HeldFloatingPointTraps held;  // the values are not checked yet
       for (std::int64_t p = r.begin(); p < r.end(); ++p) {
         const double* c = reinterpret_cast<const double*>(pa.centres + p * pa.centres_stride);
         const double rad = pa.radius(p);
-        if (!detail::particle_bits_ok(c, rad)) {  // before any arithmetic on them
-          acc.first_bad = std::min(acc.first_bad, p);
-          continue;
-        }
         bool sphere = true;
         double vol;
         if (pa.shape_ids) {
@@ -394,11 +389,8 @@ struct Engine::Impl {
         bool ok = detail::particle_values_ok(c, rad, vol);
         if (ok && given) {
           const double* q = pa.orientation(p);
-          // Components whose squares cannot overflow, then a norm that is not zero.
-          using detail::magnitude_below;
-          ok = magnitude_below(q[0], 1e150) && magnitude_below(q[1], 1e150) && magnitude_below(q[2], 1e150) &&
-               magnitude_below(q[3], 1e150) &&
-               q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3] > 0;
+          const double nn = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
+          ok = std::isfinite(nn) && nn > 0;
         }
         if (!ok) {
           acc.first_bad = std::min(acc.first_bad, p);
@@ -717,13 +709,11 @@ struct Engine::Impl {
       return tbb::parallel_reduce(
           tbb::blocked_range<std::int64_t>(0, pa.n, 16384), Range{},
           [&](const tbb::blocked_range<std::int64_t>& r, Range a) {
+            const detail::HeldFloatingPointTraps held;  // the radii are not checked yet
             const auto take = [&](double radius) {
-              // Bounds from the bits first (particle_bits_ok): a NaN must not reach a comparison.
-              const bool in_bounds = detail::radius_in_bounds(radius);
-              a.bad |= !in_bounds;
-              const double r = in_bounds ? radius : 1.0;  // bad: validate() runs, the range is not used
-              a.lo = std::min(a.lo, r);
-              a.hi = std::max(a.hi, r);
+              a.lo = std::min(a.lo, radius);
+              a.hi = std::max(a.hi, radius);
+              a.bad |= !(radius > 0);  // NaN too
             };
             if (pa.radii_stride == sizeof(double)) {  // packed: a loop the compiler vectorises
               const double* radii = reinterpret_cast<const double*>(pa.radii);
@@ -741,7 +731,8 @@ struct Engine::Impl {
           });
     });
     // The volume grows with the radius: particle_values_ok's bounds hold for every radius
-    // when they hold for the extremes.
+    // when they hold for the extremes (whose cubes may overflow: traps held).
+    const detail::HeldFloatingPointTraps held;
     const bool ok = !range.bad && (pa.n == 0 || (range.hi < 1e300 && sphere_volume(range.lo) >=
                                                                          std::numeric_limits<double>::min() &&
                                                  sphere_volume(range.hi) < 1e300));

@@ -5,10 +5,14 @@
 #include <Eigen/Core>
 
 #include <algorithm>
-#include <bit>
+#include <cfenv>
 #include <cmath>
 #include <cstdint>
 #include <limits>
+
+#ifdef __SSE2__
+#include <xmmintrin.h>
+#endif
 
 namespace vfe::detail {
 
@@ -60,26 +64,43 @@ struct Validation {
   std::int64_t beyond = 0;  ///< spheres reaching beyond a grid's box by more than outside_tolerance
 };
 
-/// The bounds the checks below need before any arithmetic on a particle's values, read
-/// from the bits alone: no floating-point operation, so a NaN, an infinity or a value whose
-/// cube overflows raises nothing a host traps (OpenFOAM traps invalid operations, division
-/// by zero and overflow by default). |x| < bound, a positive finite bound (NaN is not below).
-inline bool magnitude_below(double x, double bound) {
-  return (std::bit_cast<std::uint64_t>(x) & ~(std::uint64_t(1) << 63)) < std::bit_cast<std::uint64_t>(bound);
-}
-/// 0 < r < 1e100: a volume of the radius cubed (times a shape's) that doubles hold.
-inline bool radius_in_bounds(double r) {
-  const auto bits = std::bit_cast<std::int64_t>(r);
-  return bits > 0 && bits < std::bit_cast<std::int64_t>(1e100);
-}
-/// A centre and radius within those bounds: particle_values_ok may then compute.
-inline bool particle_bits_ok(const double* c, double radius) {
-  return magnitude_below(c[0], 1e300) && magnitude_below(c[1], 1e300) && magnitude_below(c[2], 1e300) &&
-         radius_in_bounds(radius);
-}
+/// Holds the calling thread's floating-point traps while it lives: validation computes with
+/// values it has not checked yet (a NaN compared, a radius cubed), and a host that traps
+/// invalid operations, division by zero or overflow (OpenFOAM does by default) must get the
+/// error naming the particle, not a signal. Where traps were on it restores the thread's
+/// state as it was, flags included; where none were, it costs one read of the control word.
+class HeldFloatingPointTraps {
+ public:
+  HeldFloatingPointTraps() {
+#ifdef __SSE2__
+    csr_ = _mm_getcsr();
+    held_ = (csr_ & _MM_MASK_MASK) != _MM_MASK_MASK;
+    if (held_) _mm_setcsr(csr_ | _MM_MASK_MASK);
+#else
+    held_ = std::feholdexcept(&env_) == 0;
+#endif
+  }
+  ~HeldFloatingPointTraps() {
+#ifdef __SSE2__
+    if (held_) _mm_setcsr(csr_);
+#else
+    if (held_) std::fesetenv(&env_);
+#endif
+  }
+  HeldFloatingPointTraps(const HeldFloatingPointTraps&) = delete;
+  HeldFloatingPointTraps& operator=(const HeldFloatingPointTraps&) = delete;
 
-/// One comparison chain settles r <= 0 and volumes doubles cannot hold, for values that
-/// pass particle_bits_ok (whose bounds it repeats: every comparison with NaN is false).
+ private:
+#ifdef __SSE2__
+  unsigned csr_ = 0;
+#else
+  std::fenv_t env_;
+#endif
+  bool held_ = false;
+};
+
+/// One comparison chain settles NaN, infinities, r <= 0 and volumes doubles cannot hold
+/// (every comparison with NaN is false).
 inline bool particle_values_ok(const double* c, double radius, double volume) {
   return std::abs(c[0]) + std::abs(c[1]) + std::abs(c[2]) + radius < 1e300 && radius > 0 &&
          volume >= std::numeric_limits<double>::min() && volume < 1e300;

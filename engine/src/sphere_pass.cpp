@@ -4,7 +4,6 @@
 #include "sphere_lanes.hpp"
 
 #include <algorithm>
-#include <bit>
 #include <cstring>
 #include <limits>
 #include <type_traits>
@@ -21,10 +20,6 @@ void recheck_spheres(const ParticleArrays& pa, std::int64_t first, std::int64_t 
   for (std::int64_t p = first; p < first + count; ++p) {
     const double* c = reinterpret_cast<const double*>(pa.centres + p * pa.centres_stride);
     const double r = pa.radius(p);
-    if (!particle_bits_ok(c, r)) {  // before any arithmetic on them
-      a.first_bad = std::min(a.first_bad, p);
-      continue;
-    }
     const double v = k4pi3 * r * r * r;
     if (!particle_values_ok(c, r, v)) {
       a.first_bad = std::min(a.first_bad, p);
@@ -61,10 +56,6 @@ template <bool kPacked, bool kDeposit>
     field = g->field;
   }
   const v4l magnitude = v4l{} + std::numeric_limits<std::int64_t>::max();  // every bit but the sign
-  // particle_bits_ok's bounds as integers: compared as integers, the bits of non-negative
-  // doubles order as the doubles do, and no comparison can raise a floating-point exception.
-  const v4l centre_bound = v4l{} + std::bit_cast<std::int64_t>(1e300),
-            radius_bound = v4l{} + std::bit_cast<std::int64_t>(1e100), one = v4l{} + std::bit_cast<std::int64_t>(1.0);
 
   v4l ok = v4l{} - 1;
   v4l beyond = v4l{};
@@ -87,14 +78,6 @@ template <bool kPacked, bool kDeposit>
     v4d x, y, z, rad;
     prefetch_spheres<kPacked>(c, r, cs, rs);
     load_spheres<kPacked && decltype(whole)::value>(c, r, cs, rs, lanes, x, y, z, rad);
-    // A lane out of particle_bits_ok's bounds (NaN, an infinity, a radius <= 0 or whose cube
-    // overflows) is bad, and gets the centre 0 and the radius 1 before any arithmetic: a
-    // host trapping floating-point exceptions gets the error naming it, not a signal.
-    const v4l sane = (((v4l)x & magnitude) < centre_bound) & (((v4l)y & magnitude) < centre_bound) &
-                     (((v4l)z & magnitude) < centre_bound) & ((v4l)rad > 0) & ((v4l)rad < radius_bound);
-    ok &= sane;
-    x = (v4d)((v4l)x & sane), y = (v4d)((v4l)y & sane), z = (v4d)((v4l)z & sane);
-    rad = (v4d)(((v4l)rad & sane) | (one & ~sane));
     const v4l valid = {-1, lanes > 1 ? -1 : 0, lanes > 2 ? -1 : 0, lanes > 3 ? -1 : 0};
     const v4d v = k4pi3 * rad * rad * rad;
     // particle_values_ok on four lanes (r > 0 follows from v >= the smallest normal).
@@ -179,6 +162,7 @@ __attribute__((target("arch=x86-64-v3"))) std::int64_t v3_pass(const ParticleArr
 
 std::int64_t pass(const ParticleArrays& pa, std::int64_t first, std::int64_t count, const SphereBounds& b,
                   const CentreGrid* g, Validation& a, std::int64_t* left, [[maybe_unused]] PassBuild build) {
+  const HeldFloatingPointTraps held;  // the values are not checked yet
 #ifdef VFE_HAS_V3_BUILD
   if (build == PassBuild::fastest && cpu_has_x86_64_v3()) return v3_pass(pa, first, count, b, g, a, left);
 #endif
