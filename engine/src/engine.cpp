@@ -559,10 +559,17 @@ struct Engine::Impl {
         detail::QuickWindows planned;
         for (std::int64_t chunk = r.begin(); chunk < r.end(); chunk += kChunk) {
           const std::int64_t n = std::min(kChunk, r.end() - chunk);
-          // The check first: the planning would divide by a radius of 0 (a host trapping
-          // floating-point exceptions would take a signal, not the error).
-          if (!check(chunk, n)) continue;  // the compute fails, or the bank is another's
-          detail::plan_sphere_windows(pa, chunk, n, *g, planned);
+          // The planning first, then the check: it asks for the spheres' lines ahead, so the
+          // check reads them from the cache (paired rounds: the other order lost the gain of
+          // validating in this pass). The planning computes on values not yet checked (it
+          // would divide by a radius of 0): with the thread's traps held.
+          bool good;
+          {
+            const detail::HeldFloatingPointTraps held;
+            detail::plan_sphere_windows(pa, chunk, n, *g, planned);
+            good = check(chunk, n);
+          }
+          if (!good) continue;  // the compute fails, or the bank is another's
           detail::PmmQuick::Tally tally;
           auto finish = [&](auto&& taken) {
             quick.finish_chunk(
