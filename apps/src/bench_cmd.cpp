@@ -304,7 +304,7 @@ void sink_index_sums(const std::vector<tbb::enumerable_thread_specific<LocateScr
 
 /// The machine's control for the methods' speed-ups: the locate limit over the first
 /// particles that hold this many sub-elements (a few ms on one thread), timed for every
-/// thread count within the rounds of each method's engines. It has no serial part and no
+/// thread count after the engines in each of their rounds. It has no serial part and no
 /// shared writes, so its speed-up is what the machine gave two threads at those moments.
 constexpr std::int64_t kControlSubElements = 2'000'000;
 

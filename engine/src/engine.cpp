@@ -527,8 +527,7 @@ struct Engine::Impl {
 
   /// bank_d_min, bank_d_max: the diameters the bank was made for (private_field_pass).
   Validation fused_pmm(const ParticleArrays& pa, const detail::AccumulationPlan& pl, const detail::TemplateBank& bank,
-                       bool validating, double bank_d_min = 0,
-                       double bank_d_max = std::numeric_limits<double>::infinity()) {
+                       bool validating, double bank_d_min, double bank_d_max) {
     const detail::Context ctx{detail::MethodContext{opts, bank, divided}, *fused_grid().grid};
     const detail::PmmQuick quick(ctx, true);
     const bool hybrid = opts.method == Method::automatic;
@@ -737,12 +736,12 @@ struct Engine::Impl {
             return a;
           });
     });
-    // The volume grows with the radius: particle_values_ok's bounds hold for every radius
-    // when they hold for the extremes (whose cubes may overflow: traps held).
+    // The volume grows with the radius: particle_values_ok's bounds on the radius hold for
+    // every radius when they hold for the extremes (whose cubes may overflow: traps held).
     const detail::HeldFloatingPointTraps held;
-    const bool ok = !range.bad && (pa.n == 0 || (range.hi < 1e300 && sphere_volume(range.lo) >=
-                                                                         std::numeric_limits<double>::min() &&
-                                                 sphere_volume(range.hi) < 1e300));
+    const double origin[3] = {0, 0, 0};
+    const bool ok = !range.bad && (pa.n == 0 || (detail::particle_values_ok(origin, range.lo, sphere_volume(range.lo)) &&
+                                                 detail::particle_values_ok(origin, range.hi, sphere_volume(range.hi))));
     v.d_min = 2 * range.lo;
     v.d_max = 2 * range.hi;
     return ok;
@@ -838,9 +837,6 @@ struct Engine::Impl {
                                pa.n);
     };
     detail::TemplateBank bank = template_bank();
-    if ((opts.method == Method::pmm || opts.method == Method::automatic) && !bank.fixed && !bank.templates.empty())
-      log->info("particle_grid=auto: {} to {} sub-elements per particle", bank.templates.front()->size(),
-                bank.templates.back()->size());
     prepare_shapes(pa);
 
     const detail::MethodDrivers& drivers = detail::method_drivers(opts.method);
@@ -851,8 +847,7 @@ struct Engine::Impl {
       if (validating) v = checked;
     }
     if (fused_particles) {
-      const Validation checked = assumed_diameters ? fused_pmm(pa, pl, bank, validating, v.d_min, v.d_max)
-                                                   : fused_pmm(pa, pl, bank, validating);
+      const Validation checked = fused_pmm(pa, pl, bank, validating, v.d_min, v.d_max);
       const bool stale_bank = assumed_diameters && (checked.d_min != v.d_min || checked.d_max != v.d_max);
       if (validating) v = checked;
       if (stale_bank) {  // the sizes changed since the last compute: again with their bank
@@ -860,9 +855,13 @@ struct Engine::Impl {
         acc.abandon();
         for (Scratch& sc : scratch) sc.reset_counters();
         bank = template_bank();
-        fused_pmm(pa, pl, bank, false);
+        fused_pmm(pa, pl, bank, false, v.d_min, v.d_max);
       }
     }
+    // The bank the particles took (pmm's fused pass may have changed it).
+    if ((opts.method == Method::pmm || opts.method == Method::automatic) && !bank.fixed && !bank.templates.empty())
+      log->info("particle_grid=auto: {} to {} sub-elements per particle", bank.templates.front()->size(),
+                bank.templates.back()->size());
     // Only a range of spheres makes a bank (none, or shapes alone, leave d_max = 0).
     if (v.d_max > 0)
       last_diameters.emplace(v.d_min, v.d_max);
