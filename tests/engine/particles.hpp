@@ -46,6 +46,18 @@ inline CartesianGridSpec grid(double h, std::int64_t nx, std::int64_t ny, std::i
   return g;
 }
 
+/// e's compute of p into out must fail with `status` and a message holding `text`.
+inline void expect_compute_fails(Engine& e, const Particles& p, std::vector<double>& out, vfe_status status,
+                                 const std::string& text) {
+  try {
+    e.compute(p.view(), out);
+    ADD_FAILURE() << "the compute was accepted; expected an error with \"" << text << "\"";
+  } catch (const Error& err) {
+    EXPECT_EQ(err.status(), status);
+    EXPECT_NE(std::string(err.what()).find(text), std::string::npos) << err.what();
+  }
+}
+
 /// Configures e and returns its solid-volume field for p.
 inline std::vector<double> run(Engine& e, const Particles& p, const std::string& options) {
   e.configure(options);
